@@ -1,0 +1,361 @@
+//! ODE (4) with the terms (1)-(3), its input-dependent coefficients and its Jacobians.
+//!
+//! ```text
+//! dr1/dt = -K_b1 S_x (r1 - r1_min)^beta + E - K_d1 r1
+//! dr2/dt = -K_b2 S_y (r2 - r2_min)^beta + E - K_d2 r2
+//! E      =  K_tau (|omega|/omega_ref)^p s_B B (r1 r2)
+//! ```
+//!
+//! Everything that depends only on the inputs (S_x, S_y, the expansion coefficient, the
+//! confinement gains, the steady target) is gathered in [`InputTerms`], computed once per
+//! input change: the integrator's hot path then only evaluates a few multiplications.
+//!
+//! With `Confinement::Scheduled` the gains are set so that the equilibrium of (4) is the
+//! steady map (5) exactly:
+//!
+//! ```text
+//! K_b,i = (E(r1*, r2*) - K_d,i r_i*) / (S_i (r_i* - r_i,min)^beta)
+//! ```
+//!
+//! The map scales as S^-alpha while (4)'s confinement is linear in S, so constant gains
+//! cannot do this (see `magswarm paper` for the best constant fit's error).
+
+use crate::steady::{self, SteadyPoint};
+use crate::Model;
+
+/// Floor of a scheduled confinement gain; below it the ODE cannot reach the map with the
+/// structure of (4) (expansion weaker than relaxation), and the point is flagged.
+pub const KB_FLOOR: f64 = 1e-9;
+
+/// Coefficients of (4) at fixed inputs.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct InputTerms {
+    /// Inputs these terms were computed for (z_m [m], omega [rad/s]).
+    pub z_m: f64,
+    /// Field angular velocity [rad/s].
+    pub omega: f64,
+    /// The steady map at these inputs (with its Jacobian and validity flags).
+    pub steady: SteadyPoint,
+    /// Expansion coefficient e0 = K_tau w^p s_B B [1/(mm s)]: E = e0 r1 r2.
+    pub e0: f64,
+    /// Confinement gains K_b1, K_b2 in force.
+    pub k_b: [f64; 2],
+    /// d e0 / d(z_m, omega).
+    de0: [f64; 2],
+    /// d K_b,i / d(z_m, omega) (zero for constant gains).
+    dk_b: [[f64; 2]; 2],
+}
+
+impl InputTerms {
+    /// Compute the coefficients of (4) for inputs (z_m [m], omega [rad/s]).
+    pub fn new(model: &Model, z_m: f64, omega: f64) -> InputTerms {
+        let d = &model.dynamics;
+        let sp = steady::evaluate(model, z_m, omega);
+        let (w, dw) = steady::norm_freq(model, omega);
+        let wp = if w > 0.0 { w.powf(d.p) } else { 0.0 };
+        let dwp = if w > 0.0 { d.p * wp / w * dw } else { 0.0 };
+        let e0 = d.K_tau * wp * d.s_B * sp.field.b;
+        let de0 = [
+            d.K_tau * wp * d.s_B * sp.field.db_dz,
+            d.K_tau * dwp * d.s_B * sp.field.b,
+        ];
+        let mut terms = InputTerms {
+            z_m,
+            omega,
+            steady: sp,
+            e0,
+            k_b: [d.K_b1, d.K_b2],
+            de0,
+            dk_b: [[0.0; 2]; 2],
+        };
+        if d.confinement == crate::params::Confinement::Scheduled {
+            terms.schedule(model);
+        }
+        terms
+    }
+
+    /// Set K_b,i so that (r1*, r2*) of the map is an equilibrium, with its derivatives.
+    fn schedule(&mut self, model: &Model) {
+        let d = &model.dynamics;
+        let sp = self.steady;
+        let rs = [sp.r1, sp.r2];
+        let rmin = [d.r1_min, d.r2_min];
+        let kd = [d.K_d1, d.K_d2];
+        let s = [sp.s_x, sp.s_y];
+        let prod = rs[0] * rs[1];
+        for i in 0..2 {
+            let gap = (rs[i] - rmin[i]).max(1e-12);
+            let den = s[i] * gap.powf(d.beta);
+            let num = self.e0 * prod - kd[i] * rs[i];
+            let kb = num / den;
+            if !(kb > KB_FLOOR) {
+                self.k_b[i] = KB_FLOOR;
+                self.dk_b[i] = [0.0, 0.0];
+                self.steady.validity.dynamics_clamped = true;
+                continue;
+            }
+            self.k_b[i] = kb;
+            for j in 0..2 {
+                let dprod = sp.jac[0][j] * rs[1] + rs[0] * sp.jac[1][j];
+                let dnum = self.de0[j] * prod + self.e0 * dprod - kd[i] * sp.jac[i][j];
+                let dden = sp.ds[i][j] * gap.powf(d.beta)
+                    + s[i] * d.beta * gap.powf(d.beta - 1.0) * sp.jac[i][j];
+                self.dk_b[i][j] = (dnum - kb * dden) / den;
+            }
+        }
+    }
+
+    /// Stiffness of each axis [S_x, S_y].
+    #[inline]
+    fn s(&self) -> [f64; 2] {
+        [self.steady.s_x, self.steady.s_y]
+    }
+
+    /// Right-hand side of (4) [mm/s] at state r [mm].
+    #[inline]
+    pub fn rhs(&self, model: &Model, r: [f64; 2]) -> [f64; 2] {
+        let d = &model.dynamics;
+        let s = self.s();
+        let e = self.e0 * r[0] * r[1];
+        [
+            -self.k_b[0] * s[0] * confine(r[0] - d.r1_min, d.beta) + e - d.K_d1 * r[0],
+            -self.k_b[1] * s[1] * confine(r[1] - d.r2_min, d.beta) + e - d.K_d2 * r[1],
+        ]
+    }
+
+    /// Jacobian of (4) with respect to the state, d f_i / d r_j [1/s].
+    pub fn jac_state(&self, model: &Model, r: [f64; 2]) -> [[f64; 2]; 2] {
+        let d = &model.dynamics;
+        let s = self.s();
+        [
+            [
+                -self.k_b[0] * s[0] * confine_d(r[0] - d.r1_min, d.beta) + self.e0 * r[1] - d.K_d1,
+                self.e0 * r[0],
+            ],
+            [
+                self.e0 * r[1],
+                -self.k_b[1] * s[1] * confine_d(r[1] - d.r2_min, d.beta) + self.e0 * r[0] - d.K_d2,
+            ],
+        ]
+    }
+
+    /// Jacobian of (4) with respect to the inputs, d f_i / d(z_m [m], omega [rad/s]).
+    pub fn jac_input(&self, model: &Model, r: [f64; 2]) -> [[f64; 2]; 2] {
+        let d = &model.dynamics;
+        let s = self.s();
+        let gaps = [r[0] - d.r1_min, r[1] - d.r2_min];
+        let mut out = [[0.0; 2]; 2];
+        for i in 0..2 {
+            let c = confine(gaps[i], d.beta);
+            for j in 0..2 {
+                out[i][j] = -(self.dk_b[i][j] * s[i] + self.k_b[i] * self.steady.ds[i][j]) * c
+                    + self.de0[j] * r[0] * r[1];
+            }
+        }
+        out
+    }
+}
+
+/// (r - r_min)^beta, zero below the packing limit (the confinement cannot pull further).
+#[inline]
+fn confine(gap: f64, beta: f64) -> f64 {
+    if gap > 0.0 {
+        gap.powf(beta)
+    } else {
+        0.0
+    }
+}
+
+#[inline]
+fn confine_d(gap: f64, beta: f64) -> f64 {
+    if gap > 0.0 {
+        beta * gap.powf(beta - 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// Equilibrium analysis at one operating point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Equilibrium {
+    /// The equilibrium found [mm].
+    pub r: [f64; 2],
+    /// Eigenvalues of the state Jacobian there (real parts, imaginary part) [1/s].
+    pub eig: [(f64, f64); 2],
+    /// Number of distinct equilibria found in the search box.
+    pub count: usize,
+}
+
+impl Equilibrium {
+    /// Slowest time constant [s] (the formation time scale), infinite if not stable.
+    pub fn time_constant(&self) -> f64 {
+        let slow = self.eig[0].0.max(self.eig[1].0);
+        if slow < 0.0 {
+            -1.0 / slow
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// True when both eigenvalues have negative real part.
+    pub fn stable(&self) -> bool {
+        self.eig[0].0 < 0.0 && self.eig[1].0 < 0.0
+    }
+}
+
+/// Eigenvalues of a real 2x2 matrix as (re, im) pairs.
+pub fn eig2(a: [[f64; 2]; 2]) -> [(f64, f64); 2] {
+    let tr = a[0][0] + a[1][1];
+    let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
+    let disc = tr * tr / 4.0 - det;
+    if disc >= 0.0 {
+        let s = disc.sqrt();
+        [(tr / 2.0 + s, 0.0), (tr / 2.0 - s, 0.0)]
+    } else {
+        let s = (-disc).sqrt();
+        [(tr / 2.0, s), (tr / 2.0, -s)]
+    }
+}
+
+/// Find every equilibrium of (4) at fixed inputs by Newton from a grid of starting points
+/// spanning (r_min, 4 x steady radius) on each axis, and analyse the one closest to the map.
+///
+/// Used to show numerically that the equilibrium is unique and stable over the envelope.
+pub fn equilibria(model: &Model, terms: &InputTerms) -> Equilibrium {
+    let d = &model.dynamics;
+    let target = terms.steady.radii();
+    let lo = [d.r1_min, d.r2_min];
+    let mut roots: Vec<[f64; 2]> = Vec::new();
+    let n = 12;
+    for a in 0..n {
+        for b in 0..n {
+            let mut r = [
+                lo[0] + (4.0 * target[0] - lo[0]) * (a as f64 + 0.5) / n as f64,
+                lo[1] + (4.0 * target[1] - lo[1]) * (b as f64 + 0.5) / n as f64,
+            ];
+            let mut ok = false;
+            for _ in 0..100 {
+                let f = terms.rhs(model, r);
+                let j = terms.jac_state(model, r);
+                let det = j[0][0] * j[1][1] - j[0][1] * j[1][0];
+                if det.abs() < 1e-300 {
+                    break;
+                }
+                let dx = [
+                    (j[1][1] * f[0] - j[0][1] * f[1]) / det,
+                    (-j[1][0] * f[0] + j[0][0] * f[1]) / det,
+                ];
+                // Damped step that stays above the packing limit.
+                let mut t = 1.0;
+                while t > 1e-4 && (r[0] - t * dx[0] <= lo[0] || r[1] - t * dx[1] <= lo[1]) {
+                    t *= 0.5;
+                }
+                r = [r[0] - t * dx[0], r[1] - t * dx[1]];
+                if (dx[0].abs() + dx[1].abs()) * t < 1e-11 * (r[0] + r[1]) {
+                    let f = terms.rhs(model, r);
+                    ok = f[0].abs() + f[1].abs() < 1e-8;
+                    break;
+                }
+            }
+            if ok
+                && r.iter().all(|v| v.is_finite())
+                && !roots
+                    .iter()
+                    .any(|q| (q[0] - r[0]).abs() + (q[1] - r[1]).abs() < 1e-6 * (r[0] + r[1]))
+            {
+                roots.push(r);
+            }
+        }
+    }
+    let best = roots
+        .iter()
+        .copied()
+        .min_by(|p, q| {
+            let dp = (p[0] - target[0]).abs() + (p[1] - target[1]).abs();
+            let dq = (q[0] - target[0]).abs() + (q[1] - target[1]).abs();
+            dp.total_cmp(&dq)
+        })
+        .unwrap_or([f64::NAN; 2]);
+    Equilibrium {
+        r: best,
+        eig: eig2(terms.jac_state(model, best)),
+        count: roots.len(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hz_to_rad_s as hz;
+
+    #[test]
+    fn rhs_matches_hand_computation() {
+        let m = Model::paper();
+        let t = InputTerms::new(&m, 0.0085, hz(4.0));
+        let d = m.dynamics;
+        let r = [7.0, 12.0];
+        let w: f64 = 4.0 / m.steady.f_ref;
+        let e = d.K_tau * w.powf(d.p) * d.s_B * t.steady.field.b * r[0] * r[1];
+        let f1 = -t.k_b[0] * t.steady.s_x * (r[0] - d.r1_min).powf(d.beta) + e - d.K_d1 * r[0];
+        let f2 = -t.k_b[1] * t.steady.s_y * (r[1] - d.r2_min).powf(d.beta) + e - d.K_d2 * r[1];
+        let got = t.rhs(&m, r);
+        assert!((got[0] - f1).abs() < 1e-12 && (got[1] - f2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn scheduled_equilibrium_is_the_map() {
+        let m = Model::paper();
+        let t = InputTerms::new(&m, 0.0135, hz(6.0));
+        let f = t.rhs(&m, t.steady.radii());
+        assert!(f[0].abs() < 1e-10 && f[1].abs() < 1e-10, "{f:?}");
+    }
+
+    #[test]
+    fn jacobians_match_finite_differences() {
+        let m = Model::paper();
+        for &(z, f) in &[(0.0035, 1.0), (0.0085, 4.0), (0.0235, 10.0), (0.0135, 6.5)] {
+            let om = hz(f);
+            let t = InputTerms::new(&m, z, om);
+            let r = [t.steady.r1 * 1.1, t.steady.r2 * 0.93];
+            let js = t.jac_state(&m, r);
+            let ju = t.jac_input(&m, r);
+            let h = 1e-6;
+            for j in 0..2 {
+                let mut rp = r;
+                let mut rm = r;
+                rp[j] += h;
+                rm[j] -= h;
+                let (fp, fm) = (t.rhs(&m, rp), t.rhs(&m, rm));
+                for i in 0..2 {
+                    let fd = (fp[i] - fm[i]) / (2.0 * h);
+                    assert!((fd - js[i][j]).abs() <= 1e-6 * fd.abs().max(1e-3), "state {i}{j}");
+                }
+            }
+            let steps = [1e-8, 1e-5];
+            for j in 0..2 {
+                let (mut up, mut um) = ([z, om], [z, om]);
+                up[j] += steps[j];
+                um[j] -= steps[j];
+                let tp = InputTerms::new(&m, up[0], up[1]);
+                let tm = InputTerms::new(&m, um[0], um[1]);
+                let (fp, fm) = (tp.rhs(&m, r), tm.rhs(&m, r));
+                for i in 0..2 {
+                    let fd = (fp[i] - fm[i]) / (2.0 * steps[j]);
+                    assert!(
+                        (fd - ju[i][j]).abs() <= 1e-5 * fd.abs().max(1e-3),
+                        "z {z} f {f} input d f{i}/du{j}: analytic {} fd {fd}",
+                        ju[i][j]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn eig2_of_known_matrices() {
+        let e = eig2([[-1.0, 0.0], [0.0, -3.0]]);
+        assert_eq!(e, [(-1.0, 0.0), (-3.0, 0.0)]);
+        let e = eig2([[0.0, 1.0], [-1.0, 0.0]]);
+        assert_eq!(e, [(0.0, 1.0), (0.0, -1.0)]);
+    }
+}

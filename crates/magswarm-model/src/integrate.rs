@@ -1,0 +1,240 @@
+//! Error-controlled Dormand-Prince 5(4) stepping of the two-state ODE (4).
+//!
+//! Built for the FMU's hot path: the state is a `[f64; 2]`, nothing is allocated, and the
+//! integrator carries its last accepted step size from one communication step to the next
+//! (so a controller calling doStep every millisecond pays for about one stage set per call).
+//! The whole integrator state is `Copy`, which makes FMU state save/restore a memcpy.
+
+use crate::dynamics::InputTerms;
+use crate::Model;
+
+/// Tolerances and limits of the integrator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tolerances {
+    /// Relative tolerance per step.
+    pub rtol: f64,
+    /// Absolute tolerance per step [mm].
+    pub atol: f64,
+    /// Largest internal step [s].
+    pub h_max: f64,
+    /// Most internal steps per communication step before giving up.
+    pub max_steps: u32,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances {
+            rtol: 1e-8,
+            atol: 1e-9,
+            h_max: 0.5,
+            max_steps: 100_000,
+        }
+    }
+}
+
+/// Integrator memory carried between communication steps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stepper {
+    /// Next internal step size to try [s].
+    pub h_next: f64,
+    /// Internal steps taken in total (for diagnostics and benches).
+    pub steps: u64,
+    /// Rejected internal steps in total.
+    pub rejected: u64,
+}
+
+impl Default for Stepper {
+    fn default() -> Self {
+        Stepper {
+            h_next: 1e-3,
+            steps: 0,
+            rejected: 0,
+        }
+    }
+}
+
+/// Why a communication step could not be completed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepError {
+    /// The step size fell below the resolution of time (a stiff or non-finite right-hand side).
+    StepTooSmall { t: f64, h: f64 },
+    /// More internal steps than `Tolerances::max_steps`.
+    TooManySteps { t: f64 },
+    /// The state became non-finite.
+    NonFinite { t: f64 },
+}
+
+impl std::fmt::Display for StepError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepError::StepTooSmall { t, h } => {
+                write!(f, "integrator step size {h:e} s too small at t = {t} s")
+            }
+            StepError::TooManySteps { t } => write!(f, "too many internal steps at t = {t} s"),
+            StepError::NonFinite { t } => write!(f, "state became non-finite at t = {t} s"),
+        }
+    }
+}
+
+impl std::error::Error for StepError {}
+
+// Dormand-Prince coefficients.
+const C2: f64 = 1.0 / 5.0;
+const C3: f64 = 3.0 / 10.0;
+const C4: f64 = 4.0 / 5.0;
+const C5: f64 = 8.0 / 9.0;
+const A21: f64 = 1.0 / 5.0;
+const A31: f64 = 3.0 / 40.0;
+const A32: f64 = 9.0 / 40.0;
+const A41: f64 = 44.0 / 45.0;
+const A42: f64 = -56.0 / 15.0;
+const A43: f64 = 32.0 / 9.0;
+const A51: f64 = 19372.0 / 6561.0;
+const A52: f64 = -25360.0 / 2187.0;
+const A53: f64 = 64448.0 / 6561.0;
+const A54: f64 = -212.0 / 729.0;
+const A61: f64 = 9017.0 / 3168.0;
+const A62: f64 = -355.0 / 33.0;
+const A63: f64 = 46732.0 / 5247.0;
+const A64: f64 = 49.0 / 176.0;
+const A65: f64 = -5103.0 / 18656.0;
+const B1: f64 = 35.0 / 384.0;
+const B3: f64 = 500.0 / 1113.0;
+const B4: f64 = 125.0 / 192.0;
+const B5: f64 = -2187.0 / 6784.0;
+const B6: f64 = 11.0 / 84.0;
+const E1: f64 = 71.0 / 57600.0;
+const E3: f64 = -71.0 / 16695.0;
+const E4: f64 = 71.0 / 1920.0;
+const E5: f64 = -17253.0 / 339200.0;
+const E6: f64 = 22.0 / 525.0;
+const E7: f64 = -1.0 / 40.0;
+
+#[inline]
+fn axpy(y: [f64; 2], k: &[[f64; 2]], a: &[f64], h: f64) -> [f64; 2] {
+    let mut o = y;
+    for (ki, ai) in k.iter().zip(a) {
+        o[0] += h * ai * ki[0];
+        o[1] += h * ai * ki[1];
+    }
+    o
+}
+
+impl Stepper {
+    /// Advance `y` from `t` by `h_comm` seconds under constant inputs (`terms`).
+    ///
+    /// The right-hand side is autonomous between input changes (inputs are held over a
+    /// communication step, as FMI co-simulation prescribes), so time only counts steps.
+    pub fn advance(
+        &mut self,
+        model: &Model,
+        terms: &InputTerms,
+        y: &mut [f64; 2],
+        t: f64,
+        h_comm: f64,
+        tol: &Tolerances,
+    ) -> Result<(), StepError> {
+        let f = |r: [f64; 2]| terms.rhs(model, r);
+        let mut done = 0.0;
+        let mut h = self.h_next.min(tol.h_max).min(h_comm);
+        let mut k1 = f(*y);
+        let mut n = 0u32;
+        while done < h_comm {
+            let remaining = h_comm - done;
+            // Land exactly on the communication point; avoid a sliver step after it.
+            let last = h >= remaining * (1.0 - 1e-12) || remaining - h < 1e-3 * h;
+            let hs = if last { remaining } else { h };
+            n += 1;
+            if n > tol.max_steps {
+                return Err(StepError::TooManySteps { t: t + done });
+            }
+            let k2 = f(axpy(*y, &[k1], &[A21], hs));
+            let k3 = f(axpy(*y, &[k1, k2], &[A31, A32], hs));
+            let k4 = f(axpy(*y, &[k1, k2, k3], &[A41, A42, A43], hs));
+            let k5 = f(axpy(*y, &[k1, k2, k3, k4], &[A51, A52, A53, A54], hs));
+            let k6 = f(axpy(*y, &[k1, k2, k3, k4, k5], &[A61, A62, A63, A64, A65], hs));
+            let y5 = axpy(*y, &[k1, k3, k4, k5, k6], &[B1, B3, B4, B5, B6], hs);
+            let k7 = f(y5);
+            let _ = (C2, C3, C4, C5); // stage times: the right-hand side is autonomous
+            let mut err = 0.0f64;
+            for i in 0..2 {
+                let e = hs
+                    * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
+                let sc = tol.atol + tol.rtol * y[i].abs().max(y5[i].abs());
+                err = err.max((e / sc).abs());
+            }
+            if !err.is_finite() || !y5[0].is_finite() || !y5[1].is_finite() {
+                // Shrink hard; a non-finite trial usually means the step was far too large.
+                h = hs * 0.1;
+                self.rejected += 1;
+                if h < 1e-14 * (1.0 + t.abs()) {
+                    return Err(StepError::NonFinite { t: t + done });
+                }
+                continue;
+            }
+            let factor = if err == 0.0 {
+                5.0
+            } else {
+                (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+            };
+            if err <= 1.0 {
+                *y = y5;
+                k1 = k7;
+                done = if last { h_comm } else { done + hs };
+                self.steps += 1;
+                // Remember the step the error asked for, not the truncated last one.
+                if !last || hs >= h {
+                    h = (hs * factor).min(tol.h_max);
+                }
+                self.h_next = h;
+            } else {
+                self.rejected += 1;
+                h = hs * factor.min(1.0);
+                if h < 1e-14 * (1.0 + t.abs()) {
+                    return Err(StepError::StepTooSmall { t: t + done, h });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hz_to_rad_s as hz;
+
+    #[test]
+    fn converges_to_the_steady_map() {
+        let m = Model::paper();
+        let terms = InputTerms::new(&m, 0.0085, hz(4.0));
+        let mut y = [3.0, 4.0];
+        let mut st = Stepper::default();
+        let tol = Tolerances::default();
+        let mut t = 0.0;
+        for _ in 0..600 {
+            st.advance(&m, &terms, &mut y, t, 0.1, &tol).unwrap();
+            t += 0.1;
+        }
+        assert!((y[0] - terms.steady.r1).abs() < 1e-6, "{y:?} {:?}", terms.steady);
+        assert!((y[1] - terms.steady.r2).abs() < 1e-6);
+    }
+
+    #[test]
+    fn step_size_independent_results() {
+        let m = Model::paper();
+        let terms = InputTerms::new(&m, 0.0135, hz(7.0));
+        let tol = Tolerances::default();
+        let run = |h: f64, n: usize| {
+            let mut y = [5.0, 6.0];
+            let mut st = Stepper::default();
+            for i in 0..n {
+                st.advance(&m, &terms, &mut y, i as f64 * h, h, &tol).unwrap();
+            }
+            y
+        };
+        let a = run(0.001, 2000);
+        let b = run(0.5, 4);
+        assert!((a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6, "{a:?} {b:?}");
+    }
+}

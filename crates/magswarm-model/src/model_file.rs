@@ -1,0 +1,290 @@
+//! The model file: one versioned JSON (`"schema": "magswarm-model/1"`) holding every
+//! parameter of the plant. `identify` and `diagnose` write it; the FMU, `predict` and the
+//! bridge's shadow model read it.
+//!
+//! Loading is strict on purpose: a model file drives hardware-facing experiments, so an
+//! unknown field (a typo, a newer version), a missing one, a non-finite or an out-of-range
+//! value is an error that names the field, never a silent default.
+
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+use crate::envelope::Envelope;
+use crate::field::MagnetConfig;
+use crate::params::{Conventions, DynParams, SteadyParams};
+
+/// The schema tag every model file carries.
+pub const SCHEMA: &str = "magswarm-model/1";
+
+/// Unmodelled effects switched on in the model. None exist in this schema version yet;
+/// the section is reserved so that files written by `diagnose` stay in one format.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Effects {}
+
+/// A complete plant model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Model {
+    /// Always [`SCHEMA`].
+    pub schema: String,
+    /// Short name of the model (e.g. "paper" or the rig it was identified on).
+    #[serde(default)]
+    pub name: String,
+    /// Where the values come from (free text: paper, identify run, ...).
+    #[serde(default)]
+    pub provenance: String,
+    /// Steady-map parameters (5)-(7).
+    pub steady: SteadyParams,
+    /// Units and conventions of (7).
+    pub conventions: Conventions,
+    /// Magnet and swarm geometry.
+    pub magnet: MagnetConfig,
+    /// ODE (4) parameters.
+    pub dynamics: DynParams,
+    /// Validated input envelope.
+    #[serde(default)]
+    pub envelope: Envelope,
+    /// Unmodelled effects switched on.
+    #[serde(default)]
+    pub effects: Effects,
+}
+
+/// A model file that cannot be used, with the field (JSON path) at fault.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{source_name}: {path}: {message}")]
+pub struct ModelError {
+    /// File name or "<string>".
+    pub source_name: String,
+    /// JSON path of the offending field, e.g. `steady.C_1` ("" for the whole document).
+    pub path: String,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl Default for Model {
+    fn default() -> Self {
+        Model::paper()
+    }
+}
+
+impl Model {
+    /// The built-in paper model: Table I plus the documented reconstruction.
+    pub fn paper() -> Model {
+        crate::reconstruction::paper_model()
+    }
+
+    /// Parse and validate a model from JSON text; `source_name` appears in errors.
+    pub fn from_json_str(text: &str, source_name: &str) -> Result<Model, ModelError> {
+        let de = &mut serde_json::Deserializer::from_str(text);
+        let model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
+            let path = e.path().to_string();
+            let inner = e.into_inner();
+            ModelError {
+                source_name: source_name.to_string(),
+                path: if path == "." { String::new() } else { path },
+                message: inner.to_string(),
+            }
+        })?;
+        model.validate().map_err(|mut e| {
+            e.source_name = source_name.to_string();
+            e
+        })?;
+        Ok(model)
+    }
+
+    /// Load and validate a model file.
+    pub fn load(path: &Path) -> Result<Model, ModelError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ModelError {
+            source_name: name.clone(),
+            path: String::new(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Model::from_json_str(&text, &name)
+    }
+
+    /// Serialise to pretty JSON (validated first, so a saved file always loads).
+    pub fn to_json(&self) -> Result<String, ModelError> {
+        self.validate()?;
+        serde_json::to_string_pretty(self).map_err(|e| ModelError {
+            source_name: "<model>".into(),
+            path: String::new(),
+            message: e.to_string(),
+        })
+    }
+
+    /// Write the model file, atomically (temp file + rename) so a crash loses nothing.
+    pub fn save(&self, path: &Path) -> Result<(), ModelError> {
+        let text = self.to_json()?;
+        let err = |e: std::io::Error| ModelError {
+            source_name: path.display().to_string(),
+            path: String::new(),
+            message: format!("cannot write: {e}"),
+        };
+        let tmp = path.with_extension("json.tmp");
+        std::fs::write(&tmp, text + "\n").map_err(err)?;
+        std::fs::rename(&tmp, path).map_err(err)
+    }
+
+    /// Check every value: finite and in its physical range. The first violation is returned
+    /// with its JSON path.
+    pub fn validate(&self) -> Result<(), ModelError> {
+        let mut c = Checker::default();
+        if self.schema != SCHEMA {
+            c.fail(
+                "schema",
+                format!("unsupported schema {:?}, expected {SCHEMA:?}", self.schema),
+            );
+        }
+        let s = &self.steady;
+        c.pos("steady.C_1", s.C_1);
+        c.pos("steady.C_2", s.C_2);
+        c.range("steady.a_K1", s.a_K1, 0.0, 1e6);
+        c.range("steady.a_K2", s.a_K2, 0.0, 1e6);
+        c.range("steady.alpha_1", s.alpha_1, 0.0, 10.0);
+        c.range("steady.alpha_2", s.alpha_2, 0.0, 10.0);
+        c.range("steady.gamma_1", s.gamma_1, 0.0, 10.0);
+        c.range("steady.gamma_2", s.gamma_2, 0.0, 10.0);
+        c.range("steady.s_0", s.s_0, -1e6, 1e6);
+        c.range("steady.a_G", s.a_G, -1e6, 1e6);
+        c.range("steady.rho", s.rho, 0.0, 10.0);
+        c.range("steady.N", s.N, -100.0, 100.0);
+        c.range("steady.q", s.q, 0.0, 10.0);
+        c.range("steady.a_P", s.a_P, -1e6, 1e6);
+        c.range("steady.mu_P", s.mu_P, 0.0, 10.0);
+        c.range("steady.c_P", s.c_P, -1e3, 1e3);
+        c.range("steady.q_P", s.q_P, 0.0, 10.0);
+        c.pos("steady.f_ref", s.f_ref);
+        c.pos("steady.B_ref", s.B_ref);
+        let k = &self.conventions;
+        c.pos("conventions.k_unit_t2_per_m2", k.k_unit_t2_per_m2);
+        c.pos("conventions.g_unit_t_per_m", k.g_unit_t_per_m);
+        c.pos("conventions.s_floor", k.s_floor);
+        c.range("conventions.log_arg_floor", k.log_arg_floor, 1e-300, 1.0);
+        let m = &self.magnet;
+        c.range("magnet.radius_m", m.radius_m, 1e-4, 1.0);
+        c.range("magnet.remanence_t", m.remanence_t, 1e-3, 3.0);
+        c.range("magnet.z_offset_m", m.z_offset_m, -m.radius_m * 0.99, 1.0);
+        c.range("magnet.lateral_offset_m", m.lateral_offset_m, 0.0, 1.0);
+        let d = &self.dynamics;
+        c.range("dynamics.K_b1", d.K_b1, 0.0, 1e9);
+        c.range("dynamics.K_b2", d.K_b2, 0.0, 1e9);
+        c.range("dynamics.beta", d.beta, 0.1, 10.0);
+        c.range("dynamics.r1_min", d.r1_min, 0.0, 1e3);
+        c.range("dynamics.r2_min", d.r2_min, 0.0, 1e3);
+        c.range("dynamics.K_tau", d.K_tau, 0.0, 1e9);
+        c.range("dynamics.p", d.p, 0.0, 10.0);
+        c.range("dynamics.s_B", d.s_B, 0.0, 1e9);
+        c.range("dynamics.K_d1", d.K_d1, 0.0, 1e9);
+        c.range("dynamics.K_d2", d.K_d2, 0.0, 1e9);
+        let e = &self.envelope;
+        c.range("envelope.z_min_m", e.z_min_m, -m.radius_m * 0.99, 10.0);
+        c.range("envelope.z_max_m", e.z_max_m, e.z_min_m, 10.0);
+        c.range("envelope.f_min_hz", e.f_min_hz, 0.0, 1e4);
+        c.range("envelope.f_max_hz", e.f_max_hz, e.f_min_hz, 1e4);
+        if e.z_max_m <= e.z_min_m {
+            c.fail("envelope.z_max_m", "must be larger than z_min_m".into());
+        }
+        match c.first {
+            None => Ok(()),
+            Some((path, message)) => Err(ModelError {
+                source_name: "<model>".into(),
+                path,
+                message,
+            }),
+        }
+    }
+}
+
+/// Collects the first range violation.
+#[derive(Default)]
+struct Checker {
+    first: Option<(String, String)>,
+}
+
+impl Checker {
+    fn fail(&mut self, path: &str, msg: String) {
+        if self.first.is_none() {
+            self.first = Some((path.to_string(), msg));
+        }
+    }
+    fn range(&mut self, path: &str, v: f64, lo: f64, hi: f64) {
+        if !v.is_finite() {
+            self.fail(path, format!("must be finite (got {v})"));
+        } else if v < lo || v > hi {
+            self.fail(path, format!("out of range: {v} not in [{lo}, {hi}]"));
+        }
+    }
+    fn pos(&mut self, path: &str, v: f64) {
+        if !v.is_finite() {
+            self.fail(path, format!("must be finite (got {v})"));
+        } else if v <= 0.0 {
+            self.fail(path, format!("must be > 0 (got {v})"));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_model_round_trips() {
+        let m = Model::paper();
+        let text = m.to_json().unwrap();
+        assert!(text.contains("\"schema\": \"magswarm-model/1\""));
+        let back = Model::from_json_str(&text, "t").unwrap();
+        assert_eq!(m, back);
+    }
+
+    #[test]
+    fn unknown_field_is_named() {
+        let mut v: serde_json::Value = serde_json::to_value(Model::paper()).unwrap();
+        v["steady"]["C_3"] = 1.0.into();
+        let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
+        assert_eq!(e.path, "steady.C_3");
+        assert!(e.message.contains("unknown field"), "{e}");
+        assert!(e.to_string().starts_with("m.json: steady.C_3"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_and_non_finite_values_are_named() {
+        let mut v: serde_json::Value = serde_json::to_value(Model::paper()).unwrap();
+        v["steady"]["C_1"] = (-1.0).into();
+        let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
+        assert_eq!(e.path, "steady.C_1", "{e}");
+        let mut v: serde_json::Value = serde_json::to_value(Model::paper()).unwrap();
+        v["dynamics"]["beta"] = serde_json::Value::String("NaN".into());
+        let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
+        assert_eq!(e.path, "dynamics.beta", "{e}");
+        let text = serde_json::to_string(&Model::paper())
+            .unwrap()
+            .replace("\"remanence_t\":1.32", "\"remanence_t\":1e999");
+        let e = Model::from_json_str(&text, "m.json").unwrap_err();
+        assert!(e.path.contains("remanence_t") || e.message.contains("remanence"), "{e}");
+    }
+
+    #[test]
+    fn missing_field_and_wrong_schema_are_errors() {
+        let mut v: serde_json::Value = serde_json::to_value(Model::paper()).unwrap();
+        v["steady"].as_object_mut().unwrap().remove("q_P");
+        let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
+        assert!(e.message.contains("q_P"), "{e}");
+        let mut v: serde_json::Value = serde_json::to_value(Model::paper()).unwrap();
+        v["schema"] = "magswarm-model/9".into();
+        let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
+        assert_eq!(e.path, "schema");
+    }
+
+    #[test]
+    fn save_and_load_file() {
+        let dir = std::env::temp_dir().join(format!("magswarm-model-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("m.json");
+        Model::paper().save(&p).unwrap();
+        assert_eq!(Model::load(&p).unwrap(), Model::paper());
+        let e = Model::load(&dir.join("missing.json")).unwrap_err();
+        assert!(e.message.contains("cannot read"));
+    }
+}

@@ -1,0 +1,180 @@
+//! The plant as a stateful object: inputs (z_m, omega_m) in, radii out.
+//!
+//! This is what the FMU, the virtual lab and `predict` drive. Inputs are held between steps
+//! (zero-order hold, as in FMI co-simulation); the input-dependent terms of (4) are recomputed
+//! only when an input actually changes. `Plant` is `Clone` and holds no heap data on the hot
+//! path, so saving and restoring an FMU state is a plain copy.
+
+use crate::dynamics::{InputTerms, KB_FLOOR};
+use crate::integrate::{StepError, Stepper, Tolerances};
+use crate::steady::SteadyPoint;
+use crate::{Model, Validity};
+
+/// The plant's state and its cached input terms.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plant {
+    model: Model,
+    terms: InputTerms,
+    /// Radii (r1, r2) [mm]: the state of ODE (4).
+    r: [f64; 2],
+    /// Simulation time [s].
+    t: f64,
+    stepper: Stepper,
+    tol: Tolerances,
+}
+
+/// What the plant reports at one instant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlantOutputs {
+    /// Dynamic radius r1 [mm].
+    pub r1: f64,
+    /// Dynamic radius r2 [mm].
+    pub r2: f64,
+    /// The steady map at the current inputs (r1_ss, r2_ss, S, field, Jacobian).
+    pub steady: SteadyPoint,
+}
+
+impl Plant {
+    /// A plant at rest on the steady map of the given inputs (z_m [m], omega [rad/s]).
+    pub fn new(model: Model, z_m: f64, omega: f64) -> Plant {
+        let terms = InputTerms::new(&model, z_m, omega);
+        let r = terms.steady.radii();
+        Plant {
+            model,
+            terms,
+            r,
+            t: 0.0,
+            stepper: Stepper::default(),
+            tol: Tolerances::default(),
+        }
+    }
+
+    /// The model in use.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// Current inputs (z_m [m], omega [rad/s]).
+    pub fn inputs(&self) -> (f64, f64) {
+        (self.terms.z_m, self.terms.omega)
+    }
+
+    /// Change the inputs; the coefficients of (4) are recomputed only if they differ.
+    pub fn set_inputs(&mut self, z_m: f64, omega: f64) {
+        if z_m != self.terms.z_m || omega != self.terms.omega {
+            self.terms = InputTerms::new(&self.model, z_m, omega);
+        }
+    }
+
+    /// Put the state on the steady map of the current inputs (formation complete).
+    pub fn settle(&mut self) {
+        self.r = self.terms.steady.radii();
+    }
+
+    /// Set the state directly [mm].
+    pub fn set_state(&mut self, r: [f64; 2]) {
+        self.r = r;
+    }
+
+    /// Radii state [mm].
+    pub fn state(&self) -> [f64; 2] {
+        self.r
+    }
+
+    /// Simulation time [s].
+    pub fn time(&self) -> f64 {
+        self.t
+    }
+
+    /// Set the simulation time [s] (FMI setup).
+    pub fn set_time(&mut self, t: f64) {
+        self.t = t;
+    }
+
+    /// Integrator tolerances.
+    pub fn tolerances_mut(&mut self) -> &mut Tolerances {
+        &mut self.tol
+    }
+
+    /// The coefficients of (4) at the current inputs.
+    pub fn terms(&self) -> &InputTerms {
+        &self.terms
+    }
+
+    /// Internal integrator statistics (accepted, rejected steps).
+    pub fn step_counts(&self) -> (u64, u64) {
+        (self.stepper.steps, self.stepper.rejected)
+    }
+
+    /// Advance the state by `h` seconds under the current inputs. On error the state is left
+    /// as it was, so a caller may retry with a smaller step.
+    pub fn step(&mut self, h: f64) -> Result<(), StepError> {
+        let mut y = self.r;
+        let mut st = self.stepper;
+        st.advance(&self.model, &self.terms, &mut y, self.t, h, &self.tol)?;
+        self.r = y;
+        self.stepper = st;
+        self.t += h;
+        Ok(())
+    }
+
+    /// Outputs at the current instant.
+    pub fn outputs(&self) -> PlantOutputs {
+        PlantOutputs {
+            r1: self.r[0],
+            r2: self.r[1],
+            steady: self.terms.steady,
+        }
+    }
+
+    /// Validity flags of the current inputs.
+    pub fn validity(&self) -> Validity {
+        self.terms.steady.validity
+    }
+
+    /// d(dr/dt)/dr at the current state [1/s].
+    pub fn jac_state(&self) -> [[f64; 2]; 2] {
+        self.terms.jac_state(&self.model, self.r)
+    }
+
+    /// d(dr/dt)/d(z_m, omega) at the current state.
+    pub fn jac_input(&self) -> [[f64; 2]; 2] {
+        self.terms.jac_input(&self.model, self.r)
+    }
+
+    /// Smallest confinement gain allowed when scheduling (re-exported for reports).
+    pub const KB_FLOOR: f64 = KB_FLOOR;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hz_to_rad_s as hz;
+
+    #[test]
+    fn step_response_settles_on_the_new_map() {
+        let mut p = Plant::new(Model::paper(), 0.0085, hz(4.0));
+        let before = p.outputs();
+        assert_eq!(before.r1, before.steady.r1);
+        p.set_inputs(0.0185, hz(8.0));
+        for _ in 0..300 {
+            p.step(0.1).unwrap();
+        }
+        let o = p.outputs();
+        assert!((o.r1 - o.steady.r1).abs() < 1e-5 && (o.r2 - o.steady.r2).abs() < 1e-5);
+        assert!(o.r1 > before.r1, "larger z_m gives a larger swarm");
+    }
+
+    #[test]
+    fn clone_replays_bit_identically() {
+        let mut p = Plant::new(Model::paper(), 0.0085, hz(4.0));
+        p.set_inputs(0.0135, hz(6.0));
+        p.step(0.37).unwrap();
+        let snap = p.clone();
+        p.step(0.5).unwrap();
+        let a = p.state();
+        let mut q = snap;
+        q.step(0.5).unwrap();
+        assert_eq!(a, q.state());
+    }
+}

@@ -1,0 +1,218 @@
+//! Stiffness (7), frequency term (6) and steady-state map (5), with their analytic Jacobian.
+//!
+//! Inputs are SI (z_m in m, omega_m in rad/s); radii are in mm, the unit of Table I's C_i.
+//! The seed's |omega| is used throughout (5)-(7); the sign of omega only enters through the
+//! chain rule (d|omega|/d omega), so effects that need the direction can be added on top.
+
+use crate::envelope::Validity;
+use crate::field::FieldAtSwarm;
+use crate::Model;
+
+/// Everything the steady map computes at one operating point.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SteadyPoint {
+    /// Field quantities at the swarm (SI).
+    pub field: FieldAtSwarm,
+    /// Stiffness S_x (7), floored [-].
+    pub s_x: f64,
+    /// Stiffness S_y (7), floored [-].
+    pub s_y: f64,
+    /// Frequency term Phi (6) [-].
+    pub phi: f64,
+    /// Steady radius r1 (5) [mm].
+    pub r1: f64,
+    /// Steady radius r2 (5) [mm].
+    pub r2: f64,
+    /// d(S_x, S_y)/d(z_m, omega_m): rows S_x, S_y; columns [1/m, s/rad].
+    pub ds: [[f64; 2]; 2],
+    /// d(r1, r2)/d(z_m, omega_m): rows r1, r2; columns [mm/m, mm s/rad].
+    pub jac: [[f64; 2]; 2],
+    /// Where the evaluation stands relative to the validated envelope and the model's floors.
+    pub validity: Validity,
+}
+
+impl SteadyPoint {
+    /// Radii as an array [mm].
+    pub fn radii(&self) -> [f64; 2] {
+        [self.r1, self.r2]
+    }
+}
+
+/// Normalised frequency w = |omega| / omega_ref and dw/domega.
+pub(crate) fn norm_freq(model: &Model, omega: f64) -> (f64, f64) {
+    let omega_ref = std::f64::consts::TAU * model.steady.f_ref;
+    (omega.abs() / omega_ref, omega.signum() / omega_ref)
+}
+
+/// x^e and d(x^e)/dx for x >= 0, finite at x = 0 (the derivative is then taken as 0 for
+/// e < 1: the map is only used away from omega = 0, and a finite slope keeps Newton sane).
+fn pow_d(x: f64, e: f64) -> (f64, f64) {
+    if x <= 0.0 {
+        (if e == 0.0 { 1.0 } else { 0.0 }, 0.0)
+    } else {
+        let v = x.powf(e);
+        (v, e * v / x)
+    }
+}
+
+/// Evaluate (5)-(7) and their Jacobian at (z_m [m], omega [rad/s]).
+pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
+    let p = &model.steady;
+    let c = &model.conventions;
+    let mut validity = model.envelope.classify(z_m, omega);
+    let field = model.magnet.at(z_m);
+    let (w, dw) = norm_freq(model, omega);
+
+    // Curvature terms a_K |k / unit|^gamma.
+    let kx = field.k_xx.abs() / c.k_unit_t2_per_m2;
+    let ky = field.k_yy.abs() / c.k_unit_t2_per_m2;
+    let (kx_g, kx_gd) = pow_d(kx, p.gamma_1);
+    let (ky_g, ky_gd) = pow_d(ky, p.gamma_2);
+    let dkx_dz = field.k_xx.signum() * field.dk_xx_dz / c.k_unit_t2_per_m2;
+    let dky_dz = field.k_yy.signum() * field.dk_yy_dz / c.k_unit_t2_per_m2;
+
+    // Gradient term a_G (g_z / unit)^rho.
+    let g = field.g_z / c.g_unit_t_per_m;
+    let (g_r, g_rd) = pow_d(g, p.rho);
+    let dg_dz = field.dg_z_dz / c.g_unit_t_per_m;
+
+    // Particle term a_P (B/B_ref)^mu_P [1 + log(1 + c_P w^q_P)].
+    let bn = field.b / p.B_ref;
+    let (b_mu, b_mud) = pow_d(bn, p.mu_P);
+    let (w_qp, w_qpd) = pow_d(w, p.q_P);
+    let mut arg = 1.0 + p.c_P * w_qp;
+    let mut darg_dw = p.c_P * w_qpd;
+    if arg < c.log_arg_floor {
+        arg = c.log_arg_floor;
+        darg_dw = 0.0;
+        validity.log_clamped = true;
+    }
+    let l = 1.0 + c.log_base.log(arg);
+    let dl_dw = c.log_base.dlog(arg) * darg_dw;
+    let part = p.a_P * b_mu * l;
+    let dpart_dz = p.a_P * b_mud * (field.db_dz / p.B_ref) * l;
+    let dpart_dw = p.a_P * b_mu * dl_dw * dw;
+
+    let common = p.s_0 + p.a_G * g_r + part;
+    let dcommon_dz = p.a_G * g_rd * dg_dz + dpart_dz;
+    let raw_x = common + p.a_K1 * kx_g;
+    let raw_y = common + p.a_K2 * ky_g;
+    let mut ds = [
+        [dcommon_dz + p.a_K1 * kx_gd * dkx_dz, dpart_dw],
+        [dcommon_dz + p.a_K2 * ky_gd * dky_dz, dpart_dw],
+    ];
+    let s_x = if raw_x < c.s_floor {
+        validity.s_floored = true;
+        ds[0] = [0.0, 0.0];
+        c.s_floor
+    } else {
+        raw_x
+    };
+    let s_y = if raw_y < c.s_floor {
+        validity.s_floored = true;
+        ds[1] = [0.0, 0.0];
+        c.s_floor
+    } else {
+        raw_y
+    };
+
+    // Phi (6).
+    let (w_q, w_qd) = pow_d(w, p.q);
+    let phi = (p.N * (w_q - 1.0)).exp();
+    let dlnphi_dw = p.N * w_qd * dw;
+
+    let r1 = p.C_1 * phi / s_x.powf(p.alpha_1);
+    let r2 = p.C_2 * phi / s_y.powf(p.alpha_2);
+    let jac = [
+        [
+            -p.alpha_1 * r1 / s_x * ds[0][0],
+            r1 * (dlnphi_dw - p.alpha_1 / s_x * ds[0][1]),
+        ],
+        [
+            -p.alpha_2 * r2 / s_y * ds[1][0],
+            r2 * (dlnphi_dw - p.alpha_2 / s_y * ds[1][1]),
+        ],
+    ];
+    SteadyPoint {
+        field,
+        s_x,
+        s_y,
+        phi,
+        r1,
+        r2,
+        ds,
+        jac,
+        validity,
+    }
+}
+
+/// Phi (6) alone, for the collapse plot (Fig. 5).
+pub fn phi(model: &Model, omega: f64) -> f64 {
+    let (w, _) = norm_freq(model, omega);
+    (model.steady.N * (w.powf(model.steady.q) - 1.0)).exp()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hz_to_rad_s as hz;
+
+    #[test]
+    fn equations_match_hand_computation() {
+        let m = Model::paper();
+        let (z, f) = (0.0085, 4.0);
+        let sp = evaluate(&m, z, hz(f));
+        let p = m.steady;
+        let c = m.conventions;
+        let fl = m.magnet.at(z);
+        let w: f64 = f / p.f_ref;
+        let l = 1.0 + c.log_base.log(1.0 + p.c_P * w.powf(p.q_P));
+        let part = p.a_P * (fl.b / p.B_ref).powf(p.mu_P) * l;
+        let grad = p.a_G * (fl.g_z / c.g_unit_t_per_m).powf(p.rho);
+        let sx = p.s_0 + p.a_K1 * (fl.k_xx.abs() / c.k_unit_t2_per_m2).powf(p.gamma_1) + grad + part;
+        let sy = p.s_0 + p.a_K2 * (fl.k_yy.abs() / c.k_unit_t2_per_m2).powf(p.gamma_2) + grad + part;
+        let phi = (p.N * (w.powf(p.q) - 1.0)).exp();
+        assert!((sp.s_x - sx).abs() < 1e-12 && (sp.s_y - sy).abs() < 1e-12);
+        assert!((sp.phi - phi).abs() < 1e-14);
+        assert!((sp.r1 - p.C_1 * phi / sx.powf(p.alpha_1)).abs() < 1e-12);
+        assert!((sp.r2 - p.C_2 * phi / sy.powf(p.alpha_2)).abs() < 1e-12);
+        // Phi is 1 at the reference frequency by construction.
+        assert!((super::phi(&m, hz(p.f_ref)) - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        let m = Model::paper();
+        for &z in &[0.0035, 0.0085, 0.0185, 0.0235] {
+            for &f in &[1.0, 3.0, 6.0, 9.5] {
+                let om = hz(f);
+                let sp = evaluate(&m, z, om);
+                let (hz_, ho) = (1e-7, 1e-5);
+                let (zp, zm) = (evaluate(&m, z + hz_, om), evaluate(&m, z - hz_, om));
+                let (op, omn) = (evaluate(&m, z, om + ho), evaluate(&m, z, om - ho));
+                let fd = [
+                    [(zp.r1 - zm.r1) / (2.0 * hz_), (op.r1 - omn.r1) / (2.0 * ho)],
+                    [(zp.r2 - zm.r2) / (2.0 * hz_), (op.r2 - omn.r2) / (2.0 * ho)],
+                ];
+                for i in 0..2 {
+                    for j in 0..2 {
+                        let (a, b) = (sp.jac[i][j], fd[i][j]);
+                        assert!(
+                            (a - b).abs() <= 1e-5 * b.abs().max(1e-3),
+                            "z {z} f {f} J[{i}][{j}] analytic {a} fd {b}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn negative_omega_gives_same_radii_and_mirrored_slope() {
+        let m = Model::paper();
+        let a = evaluate(&m, 0.01, hz(5.0));
+        let b = evaluate(&m, 0.01, -hz(5.0));
+        assert_eq!(a.r1, b.r1);
+        assert_eq!(a.jac[0][1], -b.jac[0][1]);
+    }
+}

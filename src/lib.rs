@@ -1,0 +1,2 @@
+//! magswarm: reduced-order model of magnetic microparticle swarms.
+pub use magswarm_model as model;
