@@ -1,0 +1,947 @@
+//! The FMI 2.0 Co-Simulation entry points as generic `unsafe fn`s over an [`FmuModel`].
+//!
+//! [`crate::export_fmi2!`] wraps each of these in a `#[no_mangle] extern "C"` function in
+//! the FMU's cdylib (generic functions cannot be exported directly). Each one:
+//!
+//! 1. checks the instance pointer (NULL, or not one of ours → `fmi2Error`);
+//! 2. checks the state machine ([`Func::allowed_in`]) → `fmi2Error` and a log message;
+//! 3. checks array pointers (NULL with a non-zero count → `fmi2Error`);
+//! 4. runs the operation inside `catch_unwind`, so a panic anywhere in the model or the
+//!    shell becomes `fmi2Error` with the panic message in the log, never unwinding into C
+//!    (which would abort the importer's process).
+//!
+//! # Safety
+//!
+//! All functions here are `unsafe` because they trust the importer's pointers the way the
+//! FMI standard says they may: a non-NULL pointer points to valid memory of the stated
+//! size, and an `fmi2Component` / `fmi2FMUstate` is one this library handed out (a stale
+//! or foreign pointer is detected by a magic number on a best-effort basis only).
+
+use std::ffi::{c_char, c_int, CStr};
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use crate::abi::*;
+use crate::guid::guid_u128;
+use crate::instance::{Instance, INSTANCE_MAGIC};
+use crate::log::{all_categories, Ctx, Logger, CAT_EVENTS};
+use crate::model::{FmuModel, InstantiateArgs};
+use crate::snapshot::{self, ShellState, Snapshot, SNAPSHOT_MAGIC};
+use crate::state::{Func, Mode};
+use crate::table::Table;
+use crate::uri::resource_dir;
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic payload".to_string()
+    }
+}
+
+/// Drop a panic payload without letting a panicking destructor escape.
+fn drop_payload(payload: Box<dyn std::any::Any + Send>) {
+    let _ = catch_unwind(AssertUnwindSafe(move || drop(payload)));
+}
+
+/// The instance behind `c`, if it is one of ours and alive.
+unsafe fn instance<M: FmuModel>(c: Fmi2Component) -> Option<*mut Instance<M>> {
+    if c.is_null() || (c as *const u64).read() != INSTANCE_MAGIC {
+        return None;
+    }
+    Some(c as *mut Instance<M>)
+}
+
+/// Common prologue/epilogue: pointer check, state check, panic barrier.
+unsafe fn entry<M: FmuModel>(
+    c: Fmi2Component,
+    func: Func,
+    body: impl FnOnce(&mut Instance<M>) -> Fmi2Status,
+) -> Fmi2Status {
+    let Some(inst) = instance::<M>(c) else {
+        // Nothing to log through: the logger lives in the instance.
+        return Fmi2Status::Error;
+    };
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        let i = &mut *inst;
+        let mode = i.shell.mode;
+        if !func.allowed_in(mode) {
+            let hint = match func {
+                Func::CancelStep => " (fmi2DoStep of this FMU never returns fmi2Pending, so there is nothing to cancel)",
+                Func::GetStatus
+                | Func::GetRealStatus
+                | Func::GetIntegerStatus
+                | Func::GetBooleanStatus
+                | Func::GetStringStatus => " (allowed after fmi2ExitInitializationMode)",
+                Func::DoStep if mode == Mode::InitializationMode => " (call fmi2ExitInitializationMode first)",
+                Func::DoStep if mode == Mode::Instantiated => {
+                    " (call fmi2EnterInitializationMode and fmi2ExitInitializationMode first)"
+                }
+                _ if mode == Mode::Error => " (after fmi2Error only getters, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance are allowed)",
+                _ if mode == Mode::Fatal => " (after fmi2Fatal only fmi2FreeInstance is allowed)",
+                _ => "",
+            };
+            return i.fail(
+                func,
+                Fmi2Status::Error,
+                format!(
+                    "illegal call sequence: not allowed in state {}{hint}",
+                    mode.name()
+                ),
+            );
+        }
+        body(i)
+    }));
+    match result {
+        Ok(s) => s,
+        Err(payload) => {
+            let msg = panic_message(&*payload);
+            drop_payload(payload);
+            let logged = catch_unwind(AssertUnwindSafe(|| {
+                (*inst).fail(
+                    func,
+                    Fmi2Status::Error,
+                    format!("internal error: the model panicked: {msg}"),
+                )
+            }));
+            match logged {
+                Ok(s) => s,
+                Err(p) => {
+                    drop_payload(p);
+                    Fmi2Status::Error
+                }
+            }
+        }
+    }
+}
+
+/// A slice from an importer's array: `Ok(&[])` for `n == 0` whatever the pointer,
+/// `Err` for NULL with `n > 0`.
+unsafe fn slice<'a, T>(p: *const T, n: usize) -> Result<&'a [T], ()> {
+    if n == 0 {
+        Ok(&[])
+    } else if p.is_null() {
+        Err(())
+    } else {
+        Ok(std::slice::from_raw_parts(p, n))
+    }
+}
+
+unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Result<&'a mut [T], ()> {
+    if n == 0 {
+        Ok(&mut [])
+    } else if p.is_null() {
+        Err(())
+    } else {
+        Ok(std::slice::from_raw_parts_mut(p, n))
+    }
+}
+
+fn null_arg<M: FmuModel>(i: &mut Instance<M>, func: Func, arg: &str) -> Fmi2Status {
+    i.fail(
+        func,
+        Fmi2Status::Error,
+        format!("argument {arg} must not be NULL"),
+    )
+}
+
+unsafe fn opt_str<'a>(p: *const c_char) -> Option<&'a CStr> {
+    if p.is_null() {
+        None
+    } else {
+        Some(CStr::from_ptr(p))
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Functions without an instance
+// ---------------------------------------------------------------------------------------
+
+/// `fmi2GetTypesPlatform`.
+pub fn fmi2_get_types_platform() -> *const c_char {
+    FMI2_TYPES_PLATFORM.as_ptr() as *const c_char
+}
+
+/// `fmi2GetVersion`.
+pub fn fmi2_get_version() -> *const c_char {
+    FMI2_VERSION.as_ptr() as *const c_char
+}
+
+/// `fmi2Instantiate`. Returns NULL (after logging why, if there is a logger) on: NULL
+/// callbacks, missing instance name or GUID, GUID mismatch, Model Exchange, an invalid
+/// variable table, or a failing (or panicking) model constructor.
+///
+/// # Safety
+/// String arguments must be NULL or NUL-terminated; `functions` NULL or valid.
+pub unsafe fn fmi2_instantiate<M: FmuModel>(
+    instance_name: Fmi2String,
+    fmu_type: c_int,
+    fmu_guid: Fmi2String,
+    fmu_resource_location: Fmi2String,
+    functions: *const Fmi2CallbackFunctions,
+    visible: Fmi2Boolean,
+    logging_on: Fmi2Boolean,
+) -> Fmi2Component {
+    let Some(callbacks) = functions.as_ref() else {
+        return std::ptr::null_mut();
+    };
+    let name = opt_str(instance_name).map(|s| s.to_string_lossy().into_owned());
+    let info = M::model_info();
+    let known: Vec<&'static str> = all_categories(info.log_categories)
+        .iter()
+        .map(|c| c.name)
+        .collect();
+    let logger = Logger::new(
+        Some(callbacks),
+        name.as_deref().unwrap_or("?"),
+        logging_on != 0,
+        known,
+    );
+    let fail = |logger: &Logger, msg: String| -> Fmi2Component {
+        logger.log(
+            Fmi2Status::Error,
+            crate::log::CAT_ERROR,
+            &format!("fmi2Instantiate: {msg}"),
+        );
+        std::ptr::null_mut()
+    };
+    let result = catch_unwind(AssertUnwindSafe(|| -> Result<Fmi2Component, String> {
+        let name = match name.as_deref() {
+            Some(n) if !n.is_empty() => n.to_string(),
+            Some(_) => return Err("instanceName must not be empty".into()),
+            None => return Err("instanceName must not be NULL".into()),
+        };
+        match fmu_type {
+            FMI2_CO_SIMULATION => {}
+            FMI2_MODEL_EXCHANGE => {
+                return Err(format!(
+                    "fmuType fmi2ModelExchange requested, but {} implements FMI 2.0 Co-Simulation only \
+                     (instantiate it as fmi2CoSimulation)",
+                    info.model_identifier
+                ))
+            }
+            other => return Err(format!("invalid fmuType {other} (expected 1 = fmi2CoSimulation)")),
+        }
+        let table = Table::new(info).map_err(|p| {
+            format!(
+                "the FMU's variable table is invalid (a bug in the FMU): {}",
+                p.join("; ")
+            )
+        })?;
+        let guid = guid_u128(info);
+        let expected = crate::guid::format_guid(guid);
+        let given = match opt_str(fmu_guid) {
+            None => return Err("fmuGUID must not be NULL".into()),
+            Some(g) => g.to_string_lossy().into_owned(),
+        };
+        if given.trim() != expected {
+            return Err(format!(
+                "GUID mismatch: the importer passed {given} but this binary is {expected}; the \
+                 modelDescription.xml does not belong to this binary"
+            ));
+        }
+        let location = opt_str(fmu_resource_location).map(|s| s.to_string_lossy().into_owned());
+        let (dir, uri_problem) = match location.as_deref().map(resource_dir) {
+            None => (None, None),
+            Some(Ok(d)) => (d, None),
+            Some(Err(e)) => (None, Some(e.to_string())),
+        };
+        if let Some(p) = uri_problem {
+            logger.log(
+                Fmi2Status::Warning,
+                crate::log::CAT_WARNING,
+                &format!("fmi2Instantiate: {p}; continuing without resources"),
+            );
+        }
+        let args = InstantiateArgs {
+            instance_name: &name,
+            resource_location: location.as_deref(),
+            resource_dir: dir.as_deref(),
+            visible: visible != 0,
+            logging_on: logging_on != 0,
+        };
+        let mut ctx = Ctx::new(&logger, "fmi2Instantiate");
+        let model = M::instantiate(&mut ctx, &args)
+            .map_err(|e| format!("the model could not be created: {}", e.message))?;
+        Ok(Box::into_raw(Box::new(Instance {
+            magic: INSTANCE_MAGIC,
+            guid,
+            table,
+            logger: Logger::new(
+                Some(callbacks),
+                &name,
+                logging_on != 0,
+                all_categories(info.log_categories)
+                    .iter()
+                    .map(|c| c.name)
+                    .collect(),
+            ),
+            resource_location: location.clone(),
+            resource_dir: dir.clone(),
+            visible: visible != 0,
+            logging_on_at_instantiation: logging_on != 0,
+            shell: ShellState::fresh(),
+            model,
+            strings: Vec::new(),
+        })) as Fmi2Component)
+    }));
+    match result {
+        Ok(Ok(c)) => {
+            let i = &*(c as *const Instance<M>);
+            if i.logger.is_enabled(Fmi2Status::Ok, CAT_EVENTS) {
+                i.logger.log(
+                    Fmi2Status::Ok,
+                    CAT_EVENTS,
+                    &format!(
+                        "fmi2Instantiate: {} {} instantiated (resources: {})",
+                        info.model_identifier,
+                        info.version,
+                        i.resource_dir
+                            .as_ref()
+                            .map_or("none".to_string(), |d| d.display().to_string())
+                    ),
+                );
+            }
+            c
+        }
+        Ok(Err(msg)) => fail(&logger, msg),
+        Err(payload) => {
+            let msg = panic_message(&*payload);
+            drop_payload(payload);
+            fail(
+                &logger,
+                format!("internal error: the model panicked: {msg}"),
+            )
+        }
+    }
+}
+
+/// `fmi2FreeInstance`. NULL or a pointer that is not a live instance is ignored.
+///
+/// # Safety
+/// `c` must be NULL or a pointer returned by [`fmi2_instantiate`] for the same `M`.
+pub unsafe fn fmi2_free_instance<M: FmuModel>(c: Fmi2Component) {
+    let Some(inst) = instance::<M>(c) else { return };
+    let r = catch_unwind(AssertUnwindSafe(|| {
+        (*inst).magic = 0;
+        drop(Box::from_raw(inst));
+    }));
+    if let Err(p) = r {
+        drop_payload(p);
+    }
+}
+
+/// `fmi2SetDebugLogging`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_set_debug_logging<M: FmuModel>(
+    c: Fmi2Component,
+    logging_on: Fmi2Boolean,
+    n_categories: usize,
+    categories: *const Fmi2String,
+) -> Fmi2Status {
+    entry::<M>(c, Func::SetDebugLogging, |i| {
+        let Ok(cats) = slice(categories, n_categories) else {
+            return null_arg(i, Func::SetDebugLogging, "categories");
+        };
+        let mut names = Vec::with_capacity(cats.len());
+        for &p in cats {
+            match opt_str(p) {
+                Some(s) => names.push(s.to_string_lossy().into_owned()),
+                None => return null_arg(i, Func::SetDebugLogging, "categories[i]"),
+            }
+        }
+        i.set_debug_logging(logging_on != 0, &names)
+    })
+}
+
+/// `fmi2SetupExperiment`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_setup_experiment<M: FmuModel>(
+    c: Fmi2Component,
+    tolerance_defined: Fmi2Boolean,
+    tolerance: Fmi2Real,
+    start_time: Fmi2Real,
+    stop_time_defined: Fmi2Boolean,
+    stop_time: Fmi2Real,
+) -> Fmi2Status {
+    entry::<M>(c, Func::SetupExperiment, |i| {
+        i.setup_experiment(
+            (tolerance_defined != 0).then_some(tolerance),
+            start_time,
+            (stop_time_defined != 0).then_some(stop_time),
+        )
+    })
+}
+
+/// `fmi2EnterInitializationMode`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_enter_initialization_mode<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
+    entry::<M>(c, Func::EnterInitializationMode, |i| {
+        i.enter_initialization_mode()
+    })
+}
+
+/// `fmi2ExitInitializationMode`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_exit_initialization_mode<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
+    entry::<M>(c, Func::ExitInitializationMode, |i| {
+        i.exit_initialization_mode()
+    })
+}
+
+/// `fmi2Terminate`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_terminate<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
+    entry::<M>(c, Func::Terminate, |i| i.terminate())
+}
+
+/// `fmi2Reset`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_reset<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
+    entry::<M>(c, Func::Reset, |i| i.reset())
+}
+
+macro_rules! getter {
+    ($(#[$doc:meta])* $name:ident, $func:expr, $t:ty, $method:ident) => {
+        $(#[$doc])*
+        ///
+        /// # Safety
+        /// See the module documentation.
+        pub unsafe fn $name<M: FmuModel>(
+            c: Fmi2Component,
+            vr: *const Fmi2ValueReference,
+            nvr: usize,
+            value: *mut $t,
+        ) -> Fmi2Status {
+            entry::<M>(c, $func, |i| {
+                let Ok(vrs) = slice(vr, nvr) else { return null_arg(i, $func, "vr") };
+                let Ok(out) = slice_mut(value, nvr) else { return null_arg(i, $func, "value") };
+                i.$method(vrs, out)
+            })
+        }
+    };
+}
+
+getter!(
+    /// `fmi2GetReal`.
+    fmi2_get_real, Func::GetReal, Fmi2Real, get_real);
+getter!(
+    /// `fmi2GetInteger`.
+    fmi2_get_integer, Func::GetInteger, Fmi2Integer, get_integer);
+getter!(
+    /// `fmi2GetBoolean`.
+    fmi2_get_boolean, Func::GetBoolean, Fmi2Boolean, get_boolean);
+getter!(
+    /// `fmi2GetString`: the returned pointers stay valid until the next `fmi2GetString`
+    /// or `fmi2FreeInstance` on this instance.
+    fmi2_get_string, Func::GetString, Fmi2String, get_string);
+
+macro_rules! setter {
+    ($(#[$doc:meta])* $name:ident, $func:expr, $t:ty, $method:ident) => {
+        $(#[$doc])*
+        ///
+        /// # Safety
+        /// See the module documentation.
+        pub unsafe fn $name<M: FmuModel>(
+            c: Fmi2Component,
+            vr: *const Fmi2ValueReference,
+            nvr: usize,
+            value: *const $t,
+        ) -> Fmi2Status {
+            entry::<M>(c, $func, |i| {
+                let Ok(vrs) = slice(vr, nvr) else { return null_arg(i, $func, "vr") };
+                let Ok(vals) = slice(value, nvr) else { return null_arg(i, $func, "value") };
+                i.$method(vrs, vals)
+            })
+        }
+    };
+}
+
+setter!(
+    /// `fmi2SetReal`: NaN and infinities are rejected with `fmi2Error` naming the variable.
+    fmi2_set_real, Func::SetReal, Fmi2Real, set_real);
+setter!(
+    /// `fmi2SetInteger`.
+    fmi2_set_integer, Func::SetInteger, Fmi2Integer, set_integer);
+setter!(
+    /// `fmi2SetBoolean`.
+    fmi2_set_boolean, Func::SetBoolean, Fmi2Boolean, set_boolean);
+
+/// `fmi2SetString`.
+///
+/// # Safety
+/// See the module documentation; each non-NULL string must be NUL-terminated.
+pub unsafe fn fmi2_set_string<M: FmuModel>(
+    c: Fmi2Component,
+    vr: *const Fmi2ValueReference,
+    nvr: usize,
+    value: *const Fmi2String,
+) -> Fmi2Status {
+    let f = Func::SetString;
+    entry::<M>(c, f, |i| {
+        let Ok(vrs) = slice(vr, nvr) else {
+            return null_arg(i, f, "vr");
+        };
+        let Ok(vals) = slice(value, nvr) else {
+            return null_arg(i, f, "value");
+        };
+        let strs: Vec<Option<&str>> = vals
+            .iter()
+            .map(|&p| opt_str(p).and_then(|s| s.to_str().ok()))
+            .collect();
+        i.set_string(vrs, &strs)
+    })
+}
+
+/// The snapshot behind an `fmi2FMUstate`, if it is one of ours, alive and of this model.
+unsafe fn snapshot_of<M: FmuModel>(
+    i: &mut Instance<M>,
+    f: Func,
+    s: Fmi2FmuState,
+) -> Result<*mut Snapshot<M>, Fmi2Status> {
+    if s.is_null() {
+        return Err(null_arg(i, f, "FMUstate"));
+    }
+    if (s as *const u64).read() != SNAPSHOT_MAGIC {
+        return Err(i.fail(
+            f,
+            Fmi2Status::Error,
+            "FMUstate is not a (live) FMU state of this FMU",
+        ));
+    }
+    let snap = s as *mut Snapshot<M>;
+    if (*snap).guid != i.guid {
+        return Err(i.fail(
+            f,
+            Fmi2Status::Error,
+            "FMUstate belongs to a different FMU (GUID mismatch)",
+        ));
+    }
+    Ok(snap)
+}
+
+/// `fmi2GetFMUstate`: a new snapshot if `*state` is NULL, else overwrite the snapshot it
+/// points to (which the standard says was returned earlier and not freed).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_fmu_state<M: FmuModel>(
+    c: Fmi2Component,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
+    let f = Func::GetFmuState;
+    entry::<M>(c, f, |i| {
+        if state.is_null() {
+            return null_arg(i, f, "FMUstate");
+        }
+        if (*state).is_null() {
+            let snap = Box::new(Snapshot {
+                magic: SNAPSHOT_MAGIC,
+                guid: i.guid,
+                shell: i.shell,
+                model: i.model.clone(),
+                cached: None,
+            });
+            *state = Box::into_raw(snap) as Fmi2FmuState;
+        } else {
+            let snap = match snapshot_of(i, f, *state) {
+                Ok(s) => s,
+                Err(st) => return st,
+            };
+            (*snap).shell = i.shell;
+            (*snap).model = i.model.clone();
+            (*snap).cached = None;
+        }
+        Fmi2Status::Ok
+    })
+}
+
+/// `fmi2SetFMUstate`: the instance becomes what it was, state machine included.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_set_fmu_state<M: FmuModel>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
+    let f = Func::SetFmuState;
+    entry::<M>(c, f, |i| {
+        let snap = match snapshot_of(i, f, state) {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        i.model = (*snap).model.clone();
+        i.shell = (*snap).shell;
+        Fmi2Status::Ok
+    })
+}
+
+/// `fmi2FreeFMUstate`: frees `*state` and sets it to NULL (NULL `*state` is a no-op).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_free_fmu_state<M: FmuModel>(
+    c: Fmi2Component,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
+    let f = Func::FreeFmuState;
+    entry::<M>(c, f, |i| {
+        if state.is_null() {
+            return null_arg(i, f, "FMUstate");
+        }
+        if (*state).is_null() {
+            return Fmi2Status::Ok;
+        }
+        let snap = match snapshot_of(i, f, *state) {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        (*snap).magic = 0;
+        drop(Box::from_raw(snap));
+        *state = std::ptr::null_mut();
+        Fmi2Status::Ok
+    })
+}
+
+unsafe fn serialized<'a, M: FmuModel>(
+    i: &mut Instance<M>,
+    f: Func,
+    snap: *mut Snapshot<M>,
+) -> Result<&'a [u8], Fmi2Status> {
+    if (*snap).cached.is_none() {
+        match snapshot::serialize(i.guid, &(*snap).shell, &(*snap).model) {
+            Ok(b) => (*snap).cached = Some(b),
+            Err(e) => {
+                let s = e.status.max(Fmi2Status::Error);
+                return Err(i.fail(f, s, format!("could not serialize: {}", e.message)));
+            }
+        }
+    }
+    Ok((*snap).cached.as_deref().unwrap_or_default())
+}
+
+/// `fmi2SerializedFMUstateSize`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_serialized_fmu_state_size<M: FmuModel>(
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    size: *mut usize,
+) -> Fmi2Status {
+    let f = Func::SerializedFmuStateSize;
+    entry::<M>(c, f, |i| {
+        if size.is_null() {
+            return null_arg(i, f, "size");
+        }
+        let snap = match snapshot_of(i, f, state) {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        match serialized(i, f, snap) {
+            Ok(b) => {
+                *size = b.len();
+                Fmi2Status::Ok
+            }
+            Err(s) => s,
+        }
+    })
+}
+
+/// `fmi2SerializeFMUstate`: `size` must equal what `fmi2SerializedFMUstateSize` returned.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_serialize_fmu_state<M: FmuModel>(
+    c: Fmi2Component,
+    state: Fmi2FmuState,
+    serialized_state: *mut Fmi2Byte,
+    size: usize,
+) -> Fmi2Status {
+    let f = Func::SerializeFmuState;
+    entry::<M>(c, f, |i| {
+        let snap = match snapshot_of(i, f, state) {
+            Ok(s) => s,
+            Err(st) => return st,
+        };
+        let bytes = match serialized(i, f, snap) {
+            Ok(b) => b,
+            Err(s) => return s,
+        };
+        if size != bytes.len() {
+            return i.fail(
+                f,
+                Fmi2Status::Error,
+                format!("size = {size} but the serialized state has {} bytes (see fmi2SerializedFMUstateSize)", bytes.len()),
+            );
+        }
+        let Ok(out) = slice_mut(serialized_state as *mut u8, size) else {
+            return null_arg(i, f, "serializedState");
+        };
+        out.copy_from_slice(bytes);
+        Fmi2Status::Ok
+    })
+}
+
+/// `fmi2DeSerializeFMUstate`: always allocates a new FMU state (the incoming `*state`
+/// is not read, since importers often pass it uninitialised).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_deserialize_fmu_state<M: FmuModel>(
+    c: Fmi2Component,
+    serialized_state: *const Fmi2Byte,
+    size: usize,
+    state: *mut Fmi2FmuState,
+) -> Fmi2Status {
+    let f = Func::DeSerializeFmuState;
+    entry::<M>(c, f, |i| {
+        if state.is_null() {
+            return null_arg(i, f, "FMUstate");
+        }
+        let Ok(bytes) = slice(serialized_state as *const u8, size) else {
+            return null_arg(i, f, "serializedState");
+        };
+        match snapshot::deserialize(i.guid, bytes, i.model.clone()) {
+            Ok((shell, model)) => {
+                let snap = Box::new(Snapshot {
+                    magic: SNAPSHOT_MAGIC,
+                    guid: i.guid,
+                    shell,
+                    model,
+                    cached: None,
+                });
+                *state = Box::into_raw(snap) as Fmi2FmuState;
+                Fmi2Status::Ok
+            }
+            Err(e) => {
+                let s = e.status.max(Fmi2Status::Error);
+                i.fail(f, s, format!("invalid serialized state: {}", e.message))
+            }
+        }
+    })
+}
+
+/// `fmi2GetDirectionalDerivative`.
+///
+/// # Safety
+/// See the module documentation.
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn fmi2_get_directional_derivative<M: FmuModel>(
+    c: Fmi2Component,
+    v_unknown_ref: *const Fmi2ValueReference,
+    n_unknown: usize,
+    v_known_ref: *const Fmi2ValueReference,
+    n_known: usize,
+    dv_known: *const Fmi2Real,
+    dv_unknown: *mut Fmi2Real,
+) -> Fmi2Status {
+    let f = Func::GetDirectionalDerivative;
+    entry::<M>(c, f, |i| {
+        let Ok(unknowns) = slice(v_unknown_ref, n_unknown) else {
+            return null_arg(i, f, "vUnknown_ref");
+        };
+        let Ok(knowns) = slice(v_known_ref, n_known) else {
+            return null_arg(i, f, "vKnown_ref");
+        };
+        let Ok(dvk) = slice(dv_known, n_known) else {
+            return null_arg(i, f, "dvKnown");
+        };
+        let Ok(dvu) = slice_mut(dv_unknown, n_unknown) else {
+            return null_arg(i, f, "dvUnknown");
+        };
+        i.directional_derivative(unknowns, knowns, dvk, dvu)
+    })
+}
+
+/// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs="false"`).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_set_real_input_derivatives<M: FmuModel>(
+    c: Fmi2Component,
+    _vr: *const Fmi2ValueReference,
+    _nvr: usize,
+    _order: *const Fmi2Integer,
+    _value: *const Fmi2Real,
+) -> Fmi2Status {
+    let f = Func::SetRealInputDerivatives;
+    entry::<M>(c, f, |i| {
+        i.fail(
+            f,
+            Fmi2Status::Error,
+            "not supported: this FMU cannot interpolate inputs (canInterpolateInputs=\"false\")",
+        )
+    })
+}
+
+/// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder="0"`).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_real_output_derivatives<M: FmuModel>(
+    c: Fmi2Component,
+    _vr: *const Fmi2ValueReference,
+    _nvr: usize,
+    _order: *const Fmi2Integer,
+    _value: *mut Fmi2Real,
+) -> Fmi2Status {
+    let f = Func::GetRealOutputDerivatives;
+    entry::<M>(c, f, |i| {
+        i.fail(f, Fmi2Status::Error, "not supported: this FMU provides no output derivatives (maxOutputDerivativeOrder=\"0\")")
+    })
+}
+
+/// `fmi2DoStep`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_do_step<M: FmuModel>(
+    c: Fmi2Component,
+    current_communication_point: Fmi2Real,
+    communication_step_size: Fmi2Real,
+    _no_set_fmu_state_prior_to_current_point: Fmi2Boolean,
+) -> Fmi2Status {
+    entry::<M>(c, Func::DoStep, |i| {
+        i.do_step(current_communication_point, communication_step_size)
+    })
+}
+
+/// `fmi2CancelStep`: always an illegal call (no step is ever pending).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_cancel_step<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
+    entry::<M>(c, Func::CancelStep, |_| Fmi2Status::Error)
+}
+
+fn status_kind_name(kind: c_int) -> Option<&'static str> {
+    match kind {
+        FMI2_DO_STEP_STATUS => Some("fmi2DoStepStatus"),
+        FMI2_PENDING_STATUS => Some("fmi2PendingStatus"),
+        FMI2_LAST_SUCCESSFUL_TIME => Some("fmi2LastSuccessfulTime"),
+        FMI2_TERMINATED => Some("fmi2Terminated"),
+        _ => None,
+    }
+}
+
+/// Status kinds that exist but have no value here: `fmi2Discard` with an explanation
+/// (the standard's answer for "not available"); unknown kinds are an error.
+fn status_unavailable<M: FmuModel>(i: &mut Instance<M>, f: Func, kind: c_int) -> Fmi2Status {
+    match status_kind_name(kind) {
+        None => i.fail(f, Fmi2Status::Error, format!("invalid fmi2StatusKind {kind}")),
+        Some(k) => i.fail(
+            f,
+            Fmi2Status::Discard,
+            format!("{k} is not available from {} (fmi2DoStep is synchronous and never requests termination)", f.name()),
+        ),
+    }
+}
+
+/// `fmi2GetStatus`: nothing is ever pending, so every kind is `fmi2Discard`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_status<M: FmuModel>(
+    c: Fmi2Component,
+    kind: c_int,
+    value: *mut c_int,
+) -> Fmi2Status {
+    let f = Func::GetStatus;
+    entry::<M>(c, f, |i| {
+        if value.is_null() {
+            return null_arg(i, f, "value");
+        }
+        status_unavailable(i, f, kind)
+    })
+}
+
+/// `fmi2GetRealStatus`: `fmi2LastSuccessfulTime` is the current communication point.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_real_status<M: FmuModel>(
+    c: Fmi2Component,
+    kind: c_int,
+    value: *mut Fmi2Real,
+) -> Fmi2Status {
+    let f = Func::GetRealStatus;
+    entry::<M>(c, f, |i| {
+        if value.is_null() {
+            return null_arg(i, f, "value");
+        }
+        if kind == FMI2_LAST_SUCCESSFUL_TIME {
+            *value = i.shell.time;
+            return Fmi2Status::Ok;
+        }
+        status_unavailable(i, f, kind)
+    })
+}
+
+/// `fmi2GetIntegerStatus`: no integer status exists in FMI 2.0 (`fmi2Discard`).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_integer_status<M: FmuModel>(
+    c: Fmi2Component,
+    kind: c_int,
+    value: *mut Fmi2Integer,
+) -> Fmi2Status {
+    let f = Func::GetIntegerStatus;
+    entry::<M>(c, f, |i| {
+        if value.is_null() {
+            return null_arg(i, f, "value");
+        }
+        status_unavailable(i, f, kind)
+    })
+}
+
+/// `fmi2GetBooleanStatus`: `fmi2Terminated` is always false (the FMU never asks to stop).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_boolean_status<M: FmuModel>(
+    c: Fmi2Component,
+    kind: c_int,
+    value: *mut Fmi2Boolean,
+) -> Fmi2Status {
+    let f = Func::GetBooleanStatus;
+    entry::<M>(c, f, |i| {
+        if value.is_null() {
+            return null_arg(i, f, "value");
+        }
+        if kind == FMI2_TERMINATED {
+            *value = FMI2_FALSE;
+            return Fmi2Status::Ok;
+        }
+        status_unavailable(i, f, kind)
+    })
+}
+
+/// `fmi2GetStringStatus`: `fmi2PendingStatus` only exists while pending (`fmi2Discard`).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_string_status<M: FmuModel>(
+    c: Fmi2Component,
+    kind: c_int,
+    value: *mut Fmi2String,
+) -> Fmi2Status {
+    let f = Func::GetStringStatus;
+    entry::<M>(c, f, |i| {
+        if value.is_null() {
+            return null_arg(i, f, "value");
+        }
+        status_unavailable(i, f, kind)
+    })
+}

@@ -1,0 +1,198 @@
+//! Turning `fmuResourceLocation` into a directory path.
+//!
+//! FMI 2.0 passes the resources folder as a URI (RFC 3986), and importers disagree on the
+//! spelling: `file:///tmp/x`, `file:/tmp/x`, `file://localhost/tmp/x`, with or without a
+//! trailing slash, with spaces percent-encoded or not, and (old importers) as a bare path.
+//! All of those are accepted; other schemes and remote hosts are rejected, because the FMU
+//! can only read local files.
+
+use std::path::PathBuf;
+
+/// Why a resource location could not be turned into a local path.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UriError(pub String);
+
+impl std::fmt::Display for UriError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UriError {}
+
+/// Decode a resource location to a local directory. `Ok(None)` for NULL-equivalent (empty)
+/// input. The result has no trailing slash (except for the root).
+pub fn resource_dir(location: &str) -> Result<Option<PathBuf>, UriError> {
+    let loc = location.trim();
+    if loc.is_empty() {
+        return Ok(None);
+    }
+    let path_part: &str = if let Some(rest) = strip_prefix_ci(loc, "file:") {
+        if let Some(after) = rest.strip_prefix("//") {
+            // Authority: empty or localhost, then the absolute path.
+            let (host, path) = match after.find('/') {
+                Some(i) => (&after[..i], &after[i..]),
+                None => (after, ""),
+            };
+            if !(host.is_empty() || host.eq_ignore_ascii_case("localhost")) {
+                return Err(UriError(format!(
+                    "resource location \"{location}\" names the remote host \"{host}\"; only local files are supported"
+                )));
+            }
+            if path.is_empty() {
+                return Err(UriError(format!(
+                    "resource location \"{location}\" has no path"
+                )));
+            }
+            path
+        } else {
+            rest
+        }
+    } else if has_scheme(loc) {
+        return Err(UriError(format!(
+            "resource location \"{location}\" is not a file: URI; only local files are supported"
+        )));
+    } else {
+        // A bare path: taken literally (no percent-decoding; a file name may contain '%').
+        return Ok(Some(trim_trailing_slash(PathBuf::from(loc))));
+    };
+    // Strip any query or fragment.
+    let path_part = path_part.split(['?', '#']).next().unwrap_or("");
+    let bytes = percent_decode(path_part).ok_or_else(|| {
+        UriError(format!(
+            "resource location \"{location}\" has an invalid percent-escape"
+        ))
+    })?;
+    let path = bytes_to_path(bytes, location)?;
+    Ok(Some(trim_trailing_slash(path)))
+}
+
+fn strip_prefix_ci<'a>(s: &'a str, prefix: &str) -> Option<&'a str> {
+    if s.len() >= prefix.len() && s[..prefix.len()].eq_ignore_ascii_case(prefix) {
+        Some(&s[prefix.len()..])
+    } else {
+        None
+    }
+}
+
+/// `scheme:` per RFC 3986, with at least two letters so that `C:\x` counts as a path.
+fn has_scheme(s: &str) -> bool {
+    match s.find(':') {
+        Some(i) if i >= 2 => {
+            let scheme = &s[..i];
+            scheme
+                .chars()
+                .next()
+                .is_some_and(|c| c.is_ascii_alphabetic())
+                && scheme
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || matches!(c, '+' | '-' | '.'))
+        }
+        _ => false,
+    }
+}
+
+fn percent_decode(s: &str) -> Option<Vec<u8>> {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' {
+            let hex = b.get(i + 1..i + 3)?;
+            let hex = std::str::from_utf8(hex).ok()?;
+            out.push(u8::from_str_radix(hex, 16).ok()?);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    Some(out)
+}
+
+#[cfg(unix)]
+fn bytes_to_path(bytes: Vec<u8>, _location: &str) -> Result<PathBuf, UriError> {
+    use std::os::unix::ffi::OsStringExt;
+    Ok(PathBuf::from(std::ffi::OsString::from_vec(bytes)))
+}
+
+#[cfg(not(unix))]
+fn bytes_to_path(bytes: Vec<u8>, location: &str) -> Result<PathBuf, UriError> {
+    let s = String::from_utf8(bytes).map_err(|_| {
+        UriError(format!(
+            "resource location \"{location}\" is not valid UTF-8"
+        ))
+    })?;
+    // "/C:/dir" -> "C:/dir"
+    let b = s.as_bytes();
+    let s = if b.len() >= 3 && b[0] == b'/' && b[1].is_ascii_alphabetic() && b[2] == b':' {
+        s[1..].to_string()
+    } else {
+        s
+    };
+    Ok(PathBuf::from(s))
+}
+
+fn trim_trailing_slash(p: PathBuf) -> PathBuf {
+    let s = p.as_os_str().to_string_lossy();
+    if s.len() > 1 && (s.ends_with('/') || s.ends_with('\\')) {
+        let trimmed = s.trim_end_matches(['/', '\\']);
+        if trimmed.is_empty() {
+            return PathBuf::from("/");
+        }
+        // Only lossless when the path is valid UTF-8; otherwise keep it as is.
+        if p.to_str().is_some() {
+            return PathBuf::from(trimmed);
+        }
+    }
+    p
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir(s: &str) -> PathBuf {
+        resource_dir(s).unwrap().unwrap()
+    }
+
+    #[test]
+    fn spellings_of_file_uris() {
+        assert_eq!(
+            dir("file:///tmp/fmu/resources"),
+            PathBuf::from("/tmp/fmu/resources")
+        );
+        assert_eq!(
+            dir("file:///tmp/fmu/resources/"),
+            PathBuf::from("/tmp/fmu/resources")
+        );
+        assert_eq!(
+            dir("file:/tmp/fmu/resources"),
+            PathBuf::from("/tmp/fmu/resources")
+        );
+        assert_eq!(dir("file://localhost/tmp/x"), PathBuf::from("/tmp/x"));
+        assert_eq!(dir("FILE:///tmp/x"), PathBuf::from("/tmp/x"));
+        assert_eq!(dir("file:///"), PathBuf::from("/"));
+    }
+
+    #[test]
+    fn percent_escapes() {
+        assert_eq!(
+            dir("file:///tmp/my%20fmu/r%C3%A9s"),
+            PathBuf::from("/tmp/my fmu/rés")
+        );
+        assert_eq!(dir("file:///tmp/a%2fb"), PathBuf::from("/tmp/a/b"));
+        assert!(resource_dir("file:///tmp/bad%2").is_err());
+        assert!(resource_dir("file:///tmp/bad%zz").is_err());
+    }
+
+    #[test]
+    fn empty_bare_and_rejected() {
+        assert_eq!(resource_dir("").unwrap(), None);
+        assert_eq!(resource_dir("   ").unwrap(), None);
+        assert_eq!(dir("/plain/path/"), PathBuf::from("/plain/path"));
+        assert!(resource_dir("http://example.invalid/res").is_err());
+        assert!(resource_dir("file://server/share").is_err());
+        assert!(resource_dir("file://").is_err());
+    }
+}

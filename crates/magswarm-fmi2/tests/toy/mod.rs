@@ -1,0 +1,342 @@
+//! A small model for the shell's tests: a first-order lag `y' = (k u - y) / tau`, stepped
+//! exactly, with every variable type, a String parameter, a tunable parameter, an
+//! envelope warning on `u`, and switches that make hooks panic.
+
+#![allow(dead_code)]
+
+use magswarm_fmi2::bytes::{ByteReader, PutBytes};
+use magswarm_fmi2::units;
+use magswarm_fmi2::{
+    Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo,
+    NamingConvention, VarType, Variable,
+};
+
+pub const U: u32 = 0;
+pub const Y: u32 = 1;
+pub const DER_Y: u32 = 2;
+pub const TAU: u32 = 3;
+pub const Y0: u32 = 4;
+pub const LABEL: u32 = 5;
+pub const K: u32 = 6;
+pub const N_STEPS: u32 = 7;
+pub const SATURATED: u32 = 8;
+pub const PANIC_NOW: u32 = 9;
+pub const TIME: u32 = 10;
+pub const OMEGA: u32 = 11;
+
+pub static VARIABLES: [Variable; 12] = [
+    Variable::real("time", TIME)
+        .independent()
+        .unit("s")
+        .description("simulation time"),
+    Variable::real("u", U)
+        .input()
+        .start_real(0.0)
+        .unit("m")
+        .display_unit("mm")
+        .description("input (valid in [-5, 5])"),
+    Variable::real("y", Y)
+        .output()
+        .unit("m")
+        .display_unit("mm")
+        .description("lag output (state)")
+        .depends_on(&[Y])
+        .initially_depends_on(&[Y0]),
+    Variable::real("der_y", DER_Y)
+        .local()
+        .derivative_of(Y)
+        .unit("m")
+        .description("dy/dt")
+        .depends_on(&[U, Y])
+        .initially_depends_on(&[U, TAU, Y0, K]),
+    Variable::real("tau", TAU)
+        .parameter()
+        .start_real(0.5)
+        .unit("s")
+        .range(1e-6, 1e6)
+        .description("time constant"),
+    Variable::real("y0", Y0)
+        .parameter()
+        .start_real(0.0)
+        .unit("m")
+        .description("initial output"),
+    Variable::string("label", LABEL)
+        .parameter()
+        .start_string("lag & <friends> \"quoted\"")
+        .description("a String parameter"),
+    Variable::real("k", K)
+        .tunable_parameter()
+        .start_real(1.0)
+        .unit("1")
+        .description("gain, tunable"),
+    Variable::integer("n_steps", N_STEPS)
+        .output()
+        .depends_on(&[])
+        .description("number of steps taken"),
+    Variable::boolean("saturated", SATURATED)
+        .output()
+        .depends_on(&[Y])
+        .description("|y| > 10"),
+    Variable::boolean("panic_now", PANIC_NOW)
+        .input()
+        .start_boolean(false)
+        .description("makes the next step panic"),
+    Variable::real("omega", OMEGA)
+        .parameter()
+        .start_real(std::f64::consts::TAU)
+        .unit("rad/s")
+        .display_unit("Hz"),
+];
+
+pub static INFO: ModelInfo = ModelInfo {
+    model_identifier: "Lag",
+    model_name: "Lag",
+    description: "first-order lag for the shell's tests",
+    version: "1.2.3",
+    author: "magswarm",
+    copyright: None,
+    license: Some("MIT OR Apache-2.0"),
+    generation_tool: "magswarm-fmi2 tests",
+    naming_convention: NamingConvention::Flat,
+    default_experiment: Some(DefaultExperiment {
+        start_time: Some(0.0),
+        stop_time: Some(5.0),
+        tolerance: Some(1e-6),
+        step_size: Some(0.01),
+    }),
+    units: &[
+        units::METRE,
+        units::SECOND,
+        units::ONE,
+        units::RAD_PER_SECOND,
+    ],
+    log_categories: &[LogCategory {
+        name: "logLag",
+        description: "lag internals",
+    }],
+    variables: &VARIABLES,
+};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lag {
+    pub u: f64,
+    pub y: f64,
+    pub tau: f64,
+    pub y0: f64,
+    pub k: f64,
+    pub omega: f64,
+    pub label: String,
+    pub n_steps: i32,
+    pub t: f64,
+    pub outside: bool,
+    pub panic_now: bool,
+}
+
+impl Lag {
+    fn der(&self) -> f64 {
+        (self.k * self.u - self.y) / self.tau
+    }
+}
+
+impl FmuModel for Lag {
+    fn model_info() -> &'static ModelInfo {
+        &INFO
+    }
+
+    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+        if args.instance_name == "panic-in-constructor" {
+            panic!("constructor asked to panic");
+        }
+        if args.instance_name == "fail-in-constructor" {
+            return Err(Fmi2Err::error("constructor asked to fail"));
+        }
+        ctx.debug("logLag", format!("resources at {:?}", args.resource_dir));
+        Ok(Lag {
+            u: 0.0,
+            y: 0.0,
+            tau: 0.5,
+            y0: 0.0,
+            k: 1.0,
+            omega: std::f64::consts::TAU,
+            label: "lag & <friends> \"quoted\"".into(),
+            n_steps: 0,
+            t: 0.0,
+            outside: false,
+            panic_now: false,
+        })
+    }
+
+    fn setup_experiment(
+        &mut self,
+        _ctx: &mut Ctx<'_>,
+        _tol: Option<f64>,
+        start: f64,
+        _stop: Option<f64>,
+    ) -> Result<(), Fmi2Err> {
+        self.t = start;
+        Ok(())
+    }
+
+    fn exit_initialization_mode(&mut self, _ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+        self.y = self.y0;
+        Ok(())
+    }
+
+    fn do_step(&mut self, _ctx: &mut Ctx<'_>, t: f64, h: f64) -> Result<(), Fmi2Err> {
+        if self.panic_now {
+            panic!("do_step asked to panic at t = {t}");
+        }
+        let yss = self.k * self.u;
+        self.y = yss + (self.y - yss) * (-h / self.tau).exp();
+        self.t = t + h;
+        self.n_steps += 1;
+        Ok(())
+    }
+
+    fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
+        Ok(match vr {
+            U => self.u,
+            Y => self.y,
+            DER_Y => self.der(),
+            TAU => self.tau,
+            Y0 => self.y0,
+            K => self.k,
+            TIME => self.t,
+            OMEGA => self.omega,
+            _ => return Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+        })
+    }
+
+    fn set_real(&mut self, ctx: &mut Ctx<'_>, vr: u32, x: f64) -> Result<(), Fmi2Err> {
+        match vr {
+            U => {
+                let outside = !(-5.0..=5.0).contains(&x);
+                if outside && !self.outside {
+                    ctx.warning(format!("u = {x} is outside the validated envelope [-5, 5]"));
+                }
+                self.outside = outside;
+                self.u = x;
+            }
+            TAU => {
+                if x <= 0.0 {
+                    return Err(Fmi2Err::error(format!("tau must be > 0, got {x}")));
+                }
+                self.tau = x
+            }
+            Y0 => self.y0 = x,
+            K => self.k = x,
+            OMEGA => self.omega = x,
+            _ => return Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+        }
+        Ok(())
+    }
+
+    fn get_integer(&mut self, vr: u32) -> Result<i32, Fmi2Err> {
+        match vr {
+            N_STEPS => Ok(self.n_steps),
+            _ => Err(Fmi2Err::unknown_vr(VarType::Integer, vr)),
+        }
+    }
+
+    fn get_boolean(&mut self, vr: u32) -> Result<bool, Fmi2Err> {
+        match vr {
+            SATURATED => Ok(self.y.abs() > 10.0),
+            PANIC_NOW => Ok(self.panic_now),
+            _ => Err(Fmi2Err::unknown_vr(VarType::Boolean, vr)),
+        }
+    }
+
+    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, v: bool) -> Result<(), Fmi2Err> {
+        match vr {
+            PANIC_NOW => {
+                self.panic_now = v;
+                Ok(())
+            }
+            _ => Err(Fmi2Err::unknown_vr(VarType::Boolean, vr)),
+        }
+    }
+
+    fn get_string(&mut self, vr: u32) -> Result<String, Fmi2Err> {
+        match vr {
+            LABEL => Ok(self.label.clone()),
+            _ => Err(Fmi2Err::unknown_vr(VarType::String, vr)),
+        }
+    }
+
+    fn set_string(&mut self, _ctx: &mut Ctx<'_>, vr: u32, v: &str) -> Result<(), Fmi2Err> {
+        match vr {
+            LABEL => {
+                if v == "panic" {
+                    panic!("set_string asked to panic");
+                }
+                self.label = v.to_string();
+                Ok(())
+            }
+            _ => Err(Fmi2Err::unknown_vr(VarType::String, vr)),
+        }
+    }
+
+    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
+        for x in [
+            self.u, self.y, self.tau, self.y0, self.k, self.omega, self.t,
+        ] {
+            out.put_f64(x);
+        }
+        out.put_str(&self.label);
+        out.put_i32(self.n_steps);
+        out.put_bool(self.outside);
+        out.put_bool(self.panic_now);
+        Ok(())
+    }
+
+    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
+        let mut r = ByteReader::new(bytes);
+        let mut fs = [0.0; 7];
+        for f in &mut fs {
+            *f = r.f64()?;
+        }
+        let label = r.str()?.to_string();
+        let n_steps = r.i32()?;
+        let outside = r.bool()?;
+        let panic_now = r.bool()?;
+        r.finish()?;
+        [
+            self.u, self.y, self.tau, self.y0, self.k, self.omega, self.t,
+        ] = fs;
+        self.label = label;
+        self.n_steps = n_steps;
+        self.outside = outside;
+        self.panic_now = panic_now;
+        Ok(())
+    }
+
+    fn directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        dv: &[f64],
+    ) -> Result<Vec<f64>, Fmi2Err> {
+        let partial = |u: u32, k: u32| -> Result<f64, Fmi2Err> {
+            Ok(match (u, k) {
+                (DER_Y, U) => self.k / self.tau,
+                (DER_Y, Y) => -1.0 / self.tau,
+                (Y, Y) => 1.0,
+                (Y, U) => 0.0,
+                _ => {
+                    return Err(Fmi2Err::error(format!(
+                        "no partial derivative of vr {u} w.r.t. vr {k}"
+                    )))
+                }
+            })
+        };
+        unknowns
+            .iter()
+            .map(|&u| {
+                knowns
+                    .iter()
+                    .zip(dv)
+                    .try_fold(0.0, |acc, (&k, &d)| Ok(acc + partial(u, k)? * d))
+            })
+            .collect()
+    }
+}
