@@ -1,1 +1,43 @@
-fn main() {}
+//! `magswarm`: the command-line face of the library. Each subcommand lives in its own
+//! library module; this file only parses arguments and reports errors.
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "magswarm", version, about = "Reduced-order model of magnetic microparticle swarms: FMU, control, identification")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Print the seed's figures beside the model's, and optionally draw Fig. 4/5-style plots.
+    Paper(magswarm::paper::PaperArgs),
+    /// Build and package the FMI 2.0 Co-Simulation FMU (default target/fmu/MagSwarm.fmu).
+    Fmu(magswarm::packaging::FmuArgs),
+    /// Replay the inputs of a log through a model (dynamics included).
+    Predict(magswarm::predict::PredictArgs),
+    /// Fit the model's parameters to measured logs.
+    Identify(magswarm::identify::IdentifyArgs),
+    /// Feedforward: the inputs (z_m, f) that give target radii (r1*, r2*).
+    Inverse(magswarm::control_cli::InverseArgs),
+    /// Linearise the plant at an operating point (A, B, C, D).
+    Linearize(magswarm::control_cli::LinearizeArgs),
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match &cli.cmd {
+        Cmd::Paper(a) => magswarm::paper::run(a),
+        Cmd::Fmu(a) => magswarm::packaging::run(a),
+        Cmd::Predict(a) => magswarm::predict::run(a),
+        Cmd::Identify(a) => magswarm::identify::run(a),
+        Cmd::Inverse(a) => magswarm::control_cli::run_inverse(a),
+        Cmd::Linearize(a) => magswarm::control_cli::run_linearize(a),
+    };
+    if let Err(e) = result {
+        eprintln!("magswarm: error: {e:#}");
+        std::process::exit(2);
+    }
+}

@@ -154,7 +154,8 @@ impl Func {
             Func::SetDebugLogging | Func::FreeInstance | Func::Reset => true,
             Func::SetupExperiment | Func::EnterInitializationMode => mode == Instantiated,
             Func::ExitInitializationMode => mode == InitializationMode,
-            Func::Terminate => matches!(mode, StepComplete | StepFailed),
+            // Error too: importers (libcosim) terminate before freeing a failed instance.
+            Func::Terminate => matches!(mode, StepComplete | StepFailed | Error),
             Func::GetReal | Func::GetInteger | Func::GetBoolean | Func::GetString => {
                 matches!(
                     mode,
@@ -283,13 +284,13 @@ mod tests {
             Func::Reset,
             Func::SetFmuState,
             Func::FreeInstance,
+            Func::Terminate,
         ] {
             assert!(f.allowed_in(Mode::Error), "{f:?}");
         }
         for f in [
             Func::SetReal,
             Func::DoStep,
-            Func::Terminate,
             Func::ExitInitializationMode,
         ] {
             assert!(!f.allowed_in(Mode::Error), "{f:?}");

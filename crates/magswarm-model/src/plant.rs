@@ -101,6 +101,21 @@ impl Plant {
         &self.terms
     }
 
+    /// Integrator memory (step size to try next, step counts), for exact save/restore.
+    pub fn stepper(&self) -> Stepper {
+        self.stepper
+    }
+
+    /// Restore the integrator memory saved with [`Plant::stepper`].
+    pub fn set_stepper(&mut self, s: Stepper) {
+        self.stepper = s;
+    }
+
+    /// Integrator tolerances.
+    pub fn tolerances(&self) -> Tolerances {
+        self.tol
+    }
+
     /// Internal integrator statistics (accepted, rejected steps).
     pub fn step_counts(&self) -> (u64, u64) {
         (self.stepper.steps, self.stepper.rejected)

@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# The project's test command (README, and .ci/run):
+#
+#   bash scripts/test.sh
+#
+# 1. scripts/setup.sh            (apt packages, .venv with fmpy/pytest/libcosimpy; idempotent)
+# 2. cargo build --release --workspace
+# 3. target/release/magswarm fmu (packages target/fmu/MagSwarm.fmu, used by the tests below)
+# 4. cargo nextest run --workspace --release (cargo test when nextest is absent) + doc tests
+# 5. .venv/bin/python -m pytest tests/python
+#
+# Stops at the first failing step and says which. Knobs:
+#   MAGSWARM_SKIP_DOCTESTS=1   skip `cargo test --doc`
+#   MAGSWARM_NO_NEXTEST=1      use `cargo test` even where nextest is installed
+#   PYTEST_ARGS="-k state"     extra arguments for pytest
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$ROOT"
+
+export CARGO_TERM_COLOR="${CARGO_TERM_COLOR:-never}"
+FMU="$ROOT/target/fmu/MagSwarm.fmu"
+export MAGSWARM_FMU="${MAGSWARM_FMU:-$FMU}"
+
+T0=$SECONDS
+CURRENT=""
+say() { printf '\n=== [test] %s\n' "$*"; }
+fail() { printf '\n=== [test] FAILED: %s\n' "$*" >&2; exit 1; }
+step() {
+    CURRENT="$1"; shift
+    say "$CURRENT"
+    local t=$SECONDS
+    "$@" || fail "$CURRENT (exit $?; command: $*)"
+    printf '=== [test] %s: ok (%ds)\n' "$CURRENT" $((SECONDS - t))
+}
+
+step "setup (scripts/setup.sh)" bash "$ROOT/scripts/setup.sh"
+
+step "cargo build --release --workspace" \
+    cargo build --release --workspace
+
+[ -x target/release/magswarm ] || fail "target/release/magswarm was not built"
+
+package_fmu() {
+    rm -f "$FMU"
+    target/release/magswarm fmu || return 1
+    [ -s "$FMU" ] || { echo "magswarm fmu succeeded but $FMU is missing or empty" >&2; return 1; }
+    ls -l "$FMU"
+}
+step "package the FMU (target/release/magswarm fmu -> target/fmu/MagSwarm.fmu)" package_fmu
+
+if [ "${MAGSWARM_NO_NEXTEST:-0}" != 1 ] && cargo nextest --version >/dev/null 2>&1; then
+    step "cargo nextest run --workspace --release" \
+        cargo nextest run --workspace --release --no-fail-fast
+    if [ "${MAGSWARM_SKIP_DOCTESTS:-0}" != 1 ]; then
+        step "cargo test --doc --workspace --release" cargo test --doc --workspace --release
+    fi
+else
+    step "cargo test --workspace --release" cargo test --workspace --release --no-fail-fast
+fi
+
+run_pytest() {
+    local rc=0
+    # shellcheck disable=SC2086
+    "$ROOT/.venv/bin/python" -m pytest tests/python -q -rs ${PYTEST_ARGS:-} || rc=$?
+    case "$rc" in
+        0) return 0 ;;
+        5) echo "pytest collected no tests in tests/python: that is a failure, not a pass" >&2; return 5 ;;
+        *) return "$rc" ;;
+    esac
+}
+step "pytest tests/python (fmpy, libcosimpy; FMU=$MAGSWARM_FMU)" run_pytest
+
+printf '\n=== [test] all steps passed in %ds\n' $((SECONDS - T0))
