@@ -104,8 +104,18 @@ pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
     if so.len() < 4 || &so[..4] != b"\x7fELF" {
         bail!("{} is not an ELF shared library", lib.display());
     }
-    let xml = magswarm_fmu::model_description(model, None);
     let model_json = model.to_json()?;
+    let xml = xml_from_library(lib, &model_json)?;
+    // The CLI links the same table as an rlib (for the documentation page); if the two
+    // disagree the library is stale and the FMU would fail its GUID check in importers.
+    let guid = magswarm_fmi2::guid::<magswarm_fmu::MagSwarm>();
+    if !xml.contains(&format!("guid=\"{guid}\"")) {
+        bail!(
+            "{} was built from other sources than this magswarm binary (GUID differs); \
+             rebuild both with `cargo build --release --workspace`",
+            lib.display()
+        );
+    }
     let doc = documentation_html(model);
 
     let mut buf = std::io::Cursor::new(Vec::new());
@@ -137,7 +147,6 @@ pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
     }
     let bytes = buf.into_inner();
     write_atomic(out, &bytes)?;
-    let guid = magswarm_fmi2::guid::<magswarm_fmu::MagSwarm>();
     Ok(format!(
         "wrote {} ({} kB): FMI 2.0 Co-Simulation, model identifier {}, GUID {guid}, \
          {} variables, model \"{}\" baked into resources/{}",
@@ -148,6 +157,31 @@ pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
         model.name,
         magswarm_fmu::RESOURCE_MODEL
     ))
+}
+
+/// Ask the compiled library itself for its modelDescription.xml (see
+/// `magswarm_fmu::magswarm_model_description`), so the XML packaged beside a binary is the
+/// one that binary was compiled from.
+fn xml_from_library(lib: &Path, model_json: &str) -> Result<String> {
+    type Describe = unsafe extern "C" fn(*const std::ffi::c_char) -> *mut std::ffi::c_char;
+    type Free = unsafe extern "C" fn(*mut std::ffi::c_char);
+    let json = std::ffi::CString::new(model_json).context("model JSON contains NUL")?;
+    // SAFETY: loading our own cdylib; the two symbols have exactly these signatures.
+    unsafe {
+        let l = libloading::Library::new(lib)
+            .with_context(|| format!("cannot load {}", lib.display()))?;
+        let describe: libloading::Symbol<Describe> = l
+            .get(b"magswarm_model_description\0")
+            .with_context(|| format!("{} is not a MagSwarm FMU library", lib.display()))?;
+        let free: libloading::Symbol<Free> = l.get(b"magswarm_free_string\0")?;
+        let p = describe(json.as_ptr());
+        if p.is_null() {
+            bail!("{} could not describe the model", lib.display());
+        }
+        let xml = std::ffi::CStr::from_ptr(p).to_string_lossy().into_owned();
+        free(p);
+        Ok(xml)
+    }
 }
 
 /// Write a file via a temporary sibling and a rename, creating parent folders.

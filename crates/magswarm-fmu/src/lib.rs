@@ -184,6 +184,11 @@ static LOG_CATEGORIES: &[LogCategory] = &[
 
 const INPUTS: &[u32] = &[vr::Z_M, vr::OMEGA_M];
 const Z_ONLY: &[u32] = &[vr::Z_M];
+// r1, r2 are the continuous states of (4): no direct feedthrough from the inputs, which is
+// what lets a controller close the loop without an algebraic loop.
+const R1_DEP: &[u32] = &[vr::R1];
+const R2_DEP: &[u32] = &[vr::R2];
+const DER_DEP: &[u32] = &[vr::Z_M, vr::OMEGA_M, vr::R1, vr::R2];
 
 fn build_variables() -> Vec<Variable> {
     let paper = Model::paper();
@@ -207,14 +212,14 @@ fn build_variables() -> Vec<Variable> {
             .unit("m")
             .display_unit("mm")
             .nominal(0.01)
-            .depends_on(&[])
+            .depends_on(R1_DEP)
             .description("principal radius r1 from ODE (4)"),
         Variable::real("r2", vr::R2)
             .output()
             .unit("m")
             .display_unit("mm")
             .nominal(0.01)
-            .depends_on(&[])
+            .depends_on(R2_DEP)
             .description("principal radius r2 from ODE (4)"),
         Variable::real("r1_ss", vr::R1_SS)
             .output()
@@ -269,11 +274,13 @@ fn build_variables() -> Vec<Variable> {
             .local()
             .unit("m/s")
             .derivative_of(vr::R1)
+            .depends_on(DER_DEP)
             .description("dr1/dt of ODE (4)"),
         Variable::real("der_r2", vr::DER_R2)
             .local()
             .unit("m/s")
             .derivative_of(vr::R2)
+            .depends_on(DER_DEP)
             .description("dr2/dt of ODE (4)"),
         Variable::boolean("settle_at_start", vr::SETTLE_AT_START)
             .parameter()
@@ -764,6 +771,47 @@ impl FmuModel for MagSwarm {
 
 #[cfg(feature = "export")]
 magswarm_fmi2::export_fmi2!(MagSwarm);
+
+/// The modelDescription.xml of this very library, with the parameter start values of the
+/// model JSON `model_json` (null: the built-in paper model). Packaging calls this through the
+/// compiled `.so`, so the XML in an FMU always comes from the binary beside it. Returns null
+/// on a bad model (the reason is not reported: packaging validates the model first). Free the
+/// result with [`magswarm_free_string`].
+///
+/// # Safety
+/// `model_json` must be null or a valid NUL-terminated string.
+#[cfg(feature = "export")]
+#[no_mangle]
+pub unsafe extern "C" fn magswarm_model_description(
+    model_json: *const std::ffi::c_char,
+) -> *mut std::ffi::c_char {
+    std::panic::catch_unwind(|| {
+        let model = if model_json.is_null() {
+            Model::paper()
+        } else {
+            let text = std::ffi::CStr::from_ptr(model_json).to_str().ok()?;
+            Model::from_json_str(text, "model").ok()?
+        };
+        std::ffi::CString::new(model_description(&model, None))
+            .ok()
+            .map(|c| c.into_raw())
+    })
+    .ok()
+    .flatten()
+    .unwrap_or(std::ptr::null_mut())
+}
+
+/// Free a string returned by [`magswarm_model_description`].
+///
+/// # Safety
+/// `s` must come from [`magswarm_model_description`] and not be freed twice.
+#[cfg(feature = "export")]
+#[no_mangle]
+pub unsafe extern "C" fn magswarm_free_string(s: *mut std::ffi::c_char) {
+    if !s.is_null() {
+        drop(std::ffi::CString::from_raw(s));
+    }
+}
 
 #[cfg(test)]
 mod tests {
