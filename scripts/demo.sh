@@ -6,8 +6,12 @@
 # 1. scripts/setup.sh (idempotent)
 # 2. cargo build --release --workspace
 # 3. target/release/magswarm fmu                      -> target/fmu/MagSwarm.fmu
-# 4. the Rust harness: cargo run --release --example pid_tracking   -> target/demo/pid_tracking.csv
-# 5. the fmpy script:  .venv/bin/python examples/pid_tracking.py     -> target/demo/pid_tracking_fmpy.csv
+# 4. target/release/magswarm fmu --pid                -> target/fmu/MagSwarmPID.fmu (the controller FMU)
+# 5. the Rust harness: cargo run --release --example pid_tracking   -> target/demo/pid_tracking.csv (+ .png)
+# 6. the fmpy script:  .venv/bin/python examples/pid_tracking.py     -> target/demo/pid_tracking_fmpy.csv
+#    (MagSwarm.fmu + MagSwarmPID.fmu, Python as the master)
+# 7. libcosim: the same script with --libcosim systems/magswarm_pid    -> target/demo/pid_tracking_libcosim.csv
+#    (SystemStructure.ssd wiring MagSwarmPID.fmu to MagSwarm.fmu)
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -41,13 +45,22 @@ if [ "${#missing[@]}" -gt 0 ]; then
     fail "the closed-loop demo needs the examples above; the FMU itself is ready at $FMU"
 fi
 
+PID_FMU="target/fmu/MagSwarmPID.fmu"
+step "package the controller FMU: target/release/magswarm fmu --pid" target/release/magswarm fmu --pid
+[ -s "$PID_FMU" ] || fail "target/release/magswarm fmu --pid ran but $PID_FMU is missing"
+
 step "closed loop from the Rust harness (fmi crate importer)" \
-    cargo run --release --example pid_tracking -- --fmu "$FMU" --out "$OUT/pid_tracking.csv"
-step "closed loop from fmpy" \
-    .venv/bin/python examples/pid_tracking.py --fmu "$FMU" --out "$OUT/pid_tracking_fmpy.csv"
+    cargo run --release --example pid_tracking -- --fmu "$FMU" --out "$OUT/pid_tracking.csv" \
+    --plot "$OUT/pid_tracking.png"
+step "closed loop from fmpy (MagSwarm.fmu + MagSwarmPID.fmu)" \
+    .venv/bin/python examples/pid_tracking.py --fmu "$FMU" --pid-fmu "$PID_FMU" \
+    --out "$OUT/pid_tracking_fmpy.csv" --plot "$OUT/pid_tracking_fmpy.png"
+step "closed loop in libcosim (systems/magswarm_pid/SystemStructure.ssd)" \
+    .venv/bin/python examples/pid_tracking.py --fmu "$FMU" --pid-fmu "$PID_FMU" \
+    --libcosim systems/magswarm_pid --system ssp --out "$OUT/pid_tracking_libcosim.csv"
 
 say "done"
-for f in "$OUT"/pid_tracking.csv "$OUT"/pid_tracking_fmpy.csv "$OUT"/*.png; do
+for f in "$OUT"/pid_tracking.csv "$OUT"/pid_tracking_fmpy.csv "$OUT"/pid_tracking_libcosim.csv "$OUT"/*.png; do
     [ -e "$f" ] && printf '  %s\n' "$f"
 done
 exit 0

@@ -9,6 +9,7 @@ pub use magswarm_control as control;
 pub use magswarm_model as model;
 
 pub mod control_cli;
+pub mod cosim;
 pub mod identify;
 pub mod log;
 pub mod packaging;

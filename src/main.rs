@@ -4,7 +4,11 @@
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "magswarm", version, about = "Reduced-order model of magnetic microparticle swarms: FMU, control, identification")]
+#[command(
+    name = "magswarm",
+    version,
+    about = "Reduced-order model of magnetic microparticle swarms: FMU, control, identification"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,

@@ -19,9 +19,10 @@ pub struct FmuArgs {
     /// Model JSON to bake into resources/ as the FMU's default model (default: paper model).
     #[arg(long)]
     pub model: Option<PathBuf>,
-    /// Output path of the FMU.
-    #[arg(long, default_value = "target/fmu/MagSwarm.fmu")]
-    pub out: PathBuf,
+    /// Output path of the FMU [default: target/fmu/MagSwarm.fmu, with --pid
+    /// target/fmu/MagSwarmPID.fmu].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// The compiled shared library to package (default: build it with cargo, or take
     /// libmagswarm_fmu.so beside this executable).
     #[arg(long)]
@@ -32,7 +33,23 @@ pub struct FmuArgs {
     /// Only write modelDescription.xml to this path (no build, no zip).
     #[arg(long, value_name = "PATH")]
     pub xml: Option<PathBuf>,
+    // --- issue 4: the controller FMU (src/pid_fmu_packaging.rs) ---
+    /// Package the controller FMU MagSwarmPID.fmu instead (crate magswarm-pid-fmu; default
+    /// --out target/fmu/MagSwarmPID.fmu; --model is the plant model the controller assumes,
+    /// --lib the controller's libmagswarm_pid_fmu.so).
+    #[arg(long)]
+    pub pid: bool,
+    /// With --pid: controller configuration JSON (magswarm-pid/1) baked into resources/pid.json.
+    #[arg(long, value_name = "CFG.json", requires = "pid")]
+    pub pid_config: Option<PathBuf>,
 }
+
+/// `magswarm fmu --pid`: the controller FMU (issue 4), kept in its own file.
+#[path = "pid_fmu_packaging.rs"]
+pub mod pid;
+
+/// Where `magswarm fmu` writes the plant FMU unless told otherwise.
+pub const DEFAULT_OUT: &str = "target/fmu/MagSwarm.fmu";
 
 /// File name of the compiled cdylib on this platform.
 pub const LIB_FILE: &str = "libmagswarm_fmu.so";
@@ -41,6 +58,9 @@ pub const PLATFORM: &str = "linux64";
 
 /// Run the command.
 pub fn run(a: &FmuArgs) -> Result<()> {
+    if a.pid {
+        return pid::run(a);
+    }
     let model = match &a.model {
         Some(p) => Model::load(p).with_context(|| format!("--model {}", p.display()))?,
         None => Model::paper(),
@@ -55,7 +75,8 @@ pub fn run(a: &FmuArgs) -> Result<()> {
         Some(p) => p.clone(),
         None => locate_library(a.no_build)?,
     };
-    let summary = package(&model, &lib, &a.out)?;
+    let out = a.out.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
+    let summary = package(&model, &lib, &out)?;
     println!("{summary}");
     Ok(())
 }
@@ -82,7 +103,9 @@ fn locate_library(no_build: bool) -> Result<PathBuf> {
             cmd.arg("--release");
         }
         eprintln!("building the FMU library: cargo build -p magswarm-fmu ({profile})");
-        let status = cmd.status().context("cannot run cargo to build the FMU library")?;
+        let status = cmd
+            .status()
+            .context("cannot run cargo to build the FMU library")?;
         if !status.success() {
             bail!("cargo build -p magswarm-fmu failed ({status})");
         }

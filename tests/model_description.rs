@@ -2,7 +2,10 @@
 
 #[test]
 fn checked_in_model_description_is_up_to_date() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/modelDescription/modelDescription.xml");
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/modelDescription/modelDescription.xml"
+    );
     let on_disk = std::fs::read_to_string(path).expect("modelDescription/modelDescription.xml");
     let generated = magswarm_fmu::model_description(&magswarm::model::Model::paper(), None);
     assert!(

@@ -288,11 +288,7 @@ mod tests {
         ] {
             assert!(f.allowed_in(Mode::Error), "{f:?}");
         }
-        for f in [
-            Func::SetReal,
-            Func::DoStep,
-            Func::ExitInitializationMode,
-        ] {
+        for f in [Func::SetReal, Func::DoStep, Func::ExitInitializationMode] {
             assert!(!f.allowed_in(Mode::Error), "{f:?}");
         }
     }

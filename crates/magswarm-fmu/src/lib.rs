@@ -104,42 +104,192 @@ macro_rules! param {
 
 /// Numeric parameters in value-reference order (vr = PARAM_BASE + index).
 pub static PARAMS: &[ParamSpec] = &[
-    param!("C_1", Some("mm"), "axis gain of r1 (5) (Table I)", steady.C_1),
-    param!("C_2", Some("mm"), "axis gain of r2 (5) (Table I)", steady.C_2),
-    param!("a_K1", None, "curvature gain of S_x (7) (Table I)", steady.a_K1),
-    param!("a_K2", None, "curvature gain of S_y (7) (Table I)", steady.a_K2),
-    param!("alpha_1", None, "stiffness exponent of r1 (5) (Table I)", steady.alpha_1),
-    param!("alpha_2", None, "stiffness exponent of r2 (5) (Table I)", steady.alpha_2),
-    param!("gamma_1", None, "curvature exponent of S_x (7) (Table I)", steady.gamma_1),
-    param!("gamma_2", None, "curvature exponent of S_y (7) (Table I)", steady.gamma_2),
+    param!(
+        "C_1",
+        Some("mm"),
+        "axis gain of r1 (5) (Table I)",
+        steady.C_1
+    ),
+    param!(
+        "C_2",
+        Some("mm"),
+        "axis gain of r2 (5) (Table I)",
+        steady.C_2
+    ),
+    param!(
+        "a_K1",
+        None,
+        "curvature gain of S_x (7) (Table I)",
+        steady.a_K1
+    ),
+    param!(
+        "a_K2",
+        None,
+        "curvature gain of S_y (7) (Table I)",
+        steady.a_K2
+    ),
+    param!(
+        "alpha_1",
+        None,
+        "stiffness exponent of r1 (5) (Table I)",
+        steady.alpha_1
+    ),
+    param!(
+        "alpha_2",
+        None,
+        "stiffness exponent of r2 (5) (Table I)",
+        steady.alpha_2
+    ),
+    param!(
+        "gamma_1",
+        None,
+        "curvature exponent of S_x (7) (Table I)",
+        steady.gamma_1
+    ),
+    param!(
+        "gamma_2",
+        None,
+        "curvature exponent of S_y (7) (Table I)",
+        steady.gamma_2
+    ),
     param!("s_0", None, "baseline stiffness (7) (Table I)", steady.s_0),
     param!("a_G", None, "gradient gain (7) (Table I)", steady.a_G),
-    param!("rho", None, "gradient exponent (7) (reconstructed)", steady.rho),
+    param!(
+        "rho",
+        None,
+        "gradient exponent (7) (reconstructed)",
+        steady.rho
+    ),
     param!("N", None, "amplitude of Phi (6) (Table I)", steady.N),
     param!("q", None, "exponent of Phi (6) (Table I)", steady.q),
-    param!("a_P", None, "particle-interaction gain (7) (Table I)", steady.a_P),
-    param!("mu_P", None, "particle-interaction field exponent (7) (Table I)", steady.mu_P),
-    param!("c_P", None, "frequency-field interaction coefficient (7) (Table I)", steady.c_P),
-    param!("q_P", None, "frequency-field interaction exponent (7) (Table I)", steady.q_P),
-    param!("f_ref", Some("Hz"), "reference frequency, omega_ref = 2 pi f_ref (Table I)", steady.f_ref),
-    param!("B_ref", Some("T"), "field normalisation of the particle term (reconstructed)", steady.B_ref),
-    param!("K_b1", None, "confinement gain of r1 in (4) when not scheduled [mm^(1-beta)/s]", dynamics.K_b1),
-    param!("K_b2", None, "confinement gain of r2 in (4) when not scheduled [mm^(1-beta)/s]", dynamics.K_b2),
+    param!(
+        "a_P",
+        None,
+        "particle-interaction gain (7) (Table I)",
+        steady.a_P
+    ),
+    param!(
+        "mu_P",
+        None,
+        "particle-interaction field exponent (7) (Table I)",
+        steady.mu_P
+    ),
+    param!(
+        "c_P",
+        None,
+        "frequency-field interaction coefficient (7) (Table I)",
+        steady.c_P
+    ),
+    param!(
+        "q_P",
+        None,
+        "frequency-field interaction exponent (7) (Table I)",
+        steady.q_P
+    ),
+    param!(
+        "f_ref",
+        Some("Hz"),
+        "reference frequency, omega_ref = 2 pi f_ref (Table I)",
+        steady.f_ref
+    ),
+    param!(
+        "B_ref",
+        Some("T"),
+        "field normalisation of the particle term (reconstructed)",
+        steady.B_ref
+    ),
+    param!(
+        "K_b1",
+        None,
+        "confinement gain of r1 in (4) when not scheduled [mm^(1-beta)/s]",
+        dynamics.K_b1
+    ),
+    param!(
+        "K_b2",
+        None,
+        "confinement gain of r2 in (4) when not scheduled [mm^(1-beta)/s]",
+        dynamics.K_b2
+    ),
     param!("beta", None, "confinement nonlinearity (1)", dynamics.beta),
-    param!("r1_min", Some("mm"), "packing limit of r1 (1)", dynamics.r1_min),
-    param!("r2_min", Some("mm"), "packing limit of r2 (1)", dynamics.r2_min),
-    param!("K_tau", None, "expansion gain (2) [1/(mm s)]", dynamics.K_tau),
+    param!(
+        "r1_min",
+        Some("mm"),
+        "packing limit of r1 (1)",
+        dynamics.r1_min
+    ),
+    param!(
+        "r2_min",
+        Some("mm"),
+        "packing limit of r2 (1)",
+        dynamics.r2_min
+    ),
+    param!(
+        "K_tau",
+        None,
+        "expansion gain (2) [1/(mm s)]",
+        dynamics.K_tau
+    ),
     param!("p", None, "expansion frequency exponent (2)", dynamics.p),
-    param!("s_B", None, "field scale of the expansion (2) [1/T]", dynamics.s_B),
-    param!("K_d1", Some("1/s"), "relaxation rate of r1 (3)", dynamics.K_d1),
-    param!("K_d2", Some("1/s"), "relaxation rate of r2 (3)", dynamics.K_d2),
-    param!("magnet_radius", Some("m"), "radius of the NdFeB sphere", magnet.radius_m),
-    param!("remanence", Some("T"), "remanent flux density of the magnet", magnet.remanence_t),
-    param!("z_offset", Some("m"), "distance added to z_m to reach the swarm plane from the magnet surface", magnet.z_offset_m),
-    param!("lateral_offset", Some("m"), "lateral distance of the swarm from the rotation axis", magnet.lateral_offset_m),
-    param!("k_unit", Some("T2/m2"), "unit of k_xx, k_yy inside (7) (reconstructed)", conventions.k_unit_t2_per_m2),
-    param!("g_unit", Some("T/m"), "unit of g_z inside (7) (reconstructed)", conventions.g_unit_t_per_m),
-    param!("s_floor", None, "positive floor of S_x, S_y", conventions.s_floor),
+    param!(
+        "s_B",
+        None,
+        "field scale of the expansion (2) [1/T]",
+        dynamics.s_B
+    ),
+    param!(
+        "K_d1",
+        Some("1/s"),
+        "relaxation rate of r1 (3)",
+        dynamics.K_d1
+    ),
+    param!(
+        "K_d2",
+        Some("1/s"),
+        "relaxation rate of r2 (3)",
+        dynamics.K_d2
+    ),
+    param!(
+        "magnet_radius",
+        Some("m"),
+        "radius of the NdFeB sphere",
+        magnet.radius_m
+    ),
+    param!(
+        "remanence",
+        Some("T"),
+        "remanent flux density of the magnet",
+        magnet.remanence_t
+    ),
+    param!(
+        "z_offset",
+        Some("m"),
+        "distance added to z_m to reach the swarm plane from the magnet surface",
+        magnet.z_offset_m
+    ),
+    param!(
+        "lateral_offset",
+        Some("m"),
+        "lateral distance of the swarm from the rotation axis",
+        magnet.lateral_offset_m
+    ),
+    param!(
+        "k_unit",
+        Some("T2/m2"),
+        "unit of k_xx, k_yy inside (7) (reconstructed)",
+        conventions.k_unit_t2_per_m2
+    ),
+    param!(
+        "g_unit",
+        Some("T/m"),
+        "unit of g_z inside (7) (reconstructed)",
+        conventions.g_unit_t_per_m
+    ),
+    param!(
+        "s_floor",
+        None,
+        "positive floor of S_x, S_y",
+        conventions.s_floor
+    ),
 ];
 
 /// Unit definitions used by the table.
@@ -537,9 +687,7 @@ impl FmuModel for MagSwarm {
     ) -> Result<(), Fmi2Err> {
         if let Some(t) = tolerance {
             if !(t > 0.0 && t < 1.0) {
-                return Err(Fmi2Err::error(format!(
-                    "tolerance {t} must be in (0, 1)"
-                )));
+                return Err(Fmi2Err::error(format!("tolerance {t} must be in (0, 1)")));
             }
             self.rtol = Some(t);
         }
@@ -759,7 +907,10 @@ impl FmuModel for MagSwarm {
         knowns: &[u32],
         dv_known: &[f64],
     ) -> Result<Vec<f64>, Fmi2Err> {
-        let idx: Vec<usize> = knowns.iter().map(|&k| known_index(k)).collect::<Result<_, _>>()?;
+        let idx: Vec<usize> = knowns
+            .iter()
+            .map(|&k| known_index(k))
+            .collect::<Result<_, _>>()?;
         let mut out = Vec::with_capacity(unknowns.len());
         for &u in unknowns {
             let row = self.jac_row(u)?;
@@ -821,10 +972,47 @@ mod tests {
     fn xml_is_generated_and_names_every_contract_variable() {
         let xml = model_description(&Model::paper(), None);
         for name in [
-            "z_m", "omega_m", "r1", "r2", "r1_ss", "r2_ss", "S_x", "S_y", "B", "g_z", "k_xx",
-            "k_yy", "model_file", "C_1", "C_2", "a_K1", "a_K2", "alpha_1", "alpha_2", "gamma_1",
-            "gamma_2", "s_0", "a_G", "rho", "N", "q", "a_P", "mu_P", "c_P", "q_P", "f_ref",
-            "B_ref", "K_b1", "K_b2", "beta", "r1_min", "r2_min", "K_tau", "p", "s_B", "K_d1",
+            "z_m",
+            "omega_m",
+            "r1",
+            "r2",
+            "r1_ss",
+            "r2_ss",
+            "S_x",
+            "S_y",
+            "B",
+            "g_z",
+            "k_xx",
+            "k_yy",
+            "model_file",
+            "C_1",
+            "C_2",
+            "a_K1",
+            "a_K2",
+            "alpha_1",
+            "alpha_2",
+            "gamma_1",
+            "gamma_2",
+            "s_0",
+            "a_G",
+            "rho",
+            "N",
+            "q",
+            "a_P",
+            "mu_P",
+            "c_P",
+            "q_P",
+            "f_ref",
+            "B_ref",
+            "K_b1",
+            "K_b2",
+            "beta",
+            "r1_min",
+            "r2_min",
+            "K_tau",
+            "p",
+            "s_B",
+            "K_d1",
             "K_d2",
         ] {
             assert!(xml.contains(&format!("name=\"{name}\"")), "missing {name}");
@@ -839,7 +1027,15 @@ mod tests {
         let a = model_description(&Model::paper(), None);
         let b = model_description(&m, None);
         assert_ne!(a, b);
-        let guid = |x: &str| x.split("guid=\"").nth(1).unwrap().split('"').next().unwrap().to_string();
+        let guid = |x: &str| {
+            x.split("guid=\"")
+                .nth(1)
+                .unwrap()
+                .split('"')
+                .next()
+                .unwrap()
+                .to_string()
+        };
         assert_eq!(guid(&a), guid(&b));
         assert!(b.contains("start=\"8.5\""));
     }

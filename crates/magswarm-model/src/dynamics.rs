@@ -88,7 +88,10 @@ impl InputTerms {
             let den = s[i] * gap.powf(d.beta);
             let num = self.e0 * prod - kd[i] * rs[i];
             let kb = num / den;
-            if !(kb > KB_FLOOR) {
+            // Written so that a NaN gain (degenerate inputs) is clamped as well.
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let too_small = !(kb > KB_FLOOR);
+            if too_small {
                 self.k_b[i] = KB_FLOOR;
                 self.dk_b[i] = [0.0, 0.0];
                 self.steady.validity.dynamics_clamped = true;
@@ -328,7 +331,10 @@ mod tests {
                 let (fp, fm) = (t.rhs(&m, rp), t.rhs(&m, rm));
                 for i in 0..2 {
                     let fd = (fp[i] - fm[i]) / (2.0 * h);
-                    assert!((fd - js[i][j]).abs() <= 1e-6 * fd.abs().max(1e-3), "state {i}{j}");
+                    assert!(
+                        (fd - js[i][j]).abs() <= 1e-6 * fd.abs().max(1e-3),
+                        "state {i}{j}"
+                    );
                 }
             }
             let steps = [1e-8, 1e-5];

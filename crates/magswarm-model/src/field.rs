@@ -187,7 +187,10 @@ mod tests {
         assert!((f.b - k / d.powi(3)).abs() < 1e-12);
         assert!((f.g_z - 3.0 * k / d.powi(4)).abs() < 1e-9);
         assert!((f.k_xx + 3.0 * k * k / d.powi(8)).abs() / f.k_xx.abs() < 1e-12);
-        assert!((f.k_xx / f.k_yy - 1.0).abs() < 1e-12, "isotropic on the axis");
+        assert!(
+            (f.k_xx / f.k_yy - 1.0).abs() < 1e-12,
+            "isotropic on the axis"
+        );
     }
 
     #[test]
@@ -217,8 +220,16 @@ mod tests {
             let b2 = |x: f64, y: f64| c.mean_b2_at(z, x, y);
             let kxx = (b2(h, y0) - 2.0 * b2(0.0, y0) + b2(-h, y0)) / (h * h);
             let kyy = (b2(0.0, y0 + h) - 2.0 * b2(0.0, y0) + b2(0.0, y0 - h)) / (h * h);
-            assert!((kxx - f.k_xx).abs() / f.k_xx.abs() < 1e-5, "kxx {kxx} {}", f.k_xx);
-            assert!((kyy - f.k_yy).abs() / f.k_yy.abs() < 1e-5, "kyy {kyy} {}", f.k_yy);
+            assert!(
+                (kxx - f.k_xx).abs() / f.k_xx.abs() < 1e-5,
+                "kxx {kxx} {}",
+                f.k_xx
+            );
+            assert!(
+                (kyy - f.k_yy).abs() / f.k_yy.abs() < 1e-5,
+                "kyy {kyy} {}",
+                f.k_yy
+            );
             let bmag = |zz: f64| c.mean_b2_at(zz, 0.0, y0).sqrt();
             assert!((bmag(z) - f.b).abs() / f.b < 1e-12);
             // z_m grows away from the magnet: |B| falls, g_z = -d|B|/dz_m.

@@ -152,7 +152,12 @@ impl Stepper {
             let k3 = f(axpy(*y, &[k1, k2], &[A31, A32], hs));
             let k4 = f(axpy(*y, &[k1, k2, k3], &[A41, A42, A43], hs));
             let k5 = f(axpy(*y, &[k1, k2, k3, k4], &[A51, A52, A53, A54], hs));
-            let k6 = f(axpy(*y, &[k1, k2, k3, k4, k5], &[A61, A62, A63, A64, A65], hs));
+            let k6 = f(axpy(
+                *y,
+                &[k1, k2, k3, k4, k5],
+                &[A61, A62, A63, A64, A65],
+                hs,
+            ));
             let y5 = axpy(*y, &[k1, k3, k4, k5, k6], &[B1, B3, B4, B5, B6], hs);
             let k7 = f(y5);
             let _ = (C2, C3, C4, C5); // stage times: the right-hand side is autonomous
@@ -216,7 +221,11 @@ mod tests {
             st.advance(&m, &terms, &mut y, t, 0.1, &tol).unwrap();
             t += 0.1;
         }
-        assert!((y[0] - terms.steady.r1).abs() < 1e-6, "{y:?} {:?}", terms.steady);
+        assert!(
+            (y[0] - terms.steady.r1).abs() < 1e-6,
+            "{y:?} {:?}",
+            terms.steady
+        );
         assert!((y[1] - terms.steady.r2).abs() < 1e-6);
     }
 
@@ -229,12 +238,16 @@ mod tests {
             let mut y = [5.0, 6.0];
             let mut st = Stepper::default();
             for i in 0..n {
-                st.advance(&m, &terms, &mut y, i as f64 * h, h, &tol).unwrap();
+                st.advance(&m, &terms, &mut y, i as f64 * h, h, &tol)
+                    .unwrap();
             }
             y
         };
         let a = run(0.001, 2000);
         let b = run(0.5, 4);
-        assert!((a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6, "{a:?} {b:?}");
+        assert!(
+            (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6,
+            "{a:?} {b:?}"
+        );
     }
 }

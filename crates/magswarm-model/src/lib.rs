@@ -18,6 +18,9 @@
 //! Units: inputs are SI (z_m in m, omega_m in rad/s); radii are in mm (Table I's unit for
 //! C_i); the FMU converts radii to m at its boundary.
 
+// 2x2 matrix code reads best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
 pub mod dynamics;
 pub mod envelope;
 pub mod field;

@@ -262,7 +262,10 @@ mod tests {
             .unwrap()
             .replace("\"remanence_t\":1.32", "\"remanence_t\":1e999");
         let e = Model::from_json_str(&text, "m.json").unwrap_err();
-        assert!(e.path.contains("remanence_t") || e.message.contains("remanence"), "{e}");
+        assert!(
+            e.path.contains("remanence_t") || e.message.contains("remanence"),
+            "{e}"
+        );
     }
 
     #[test]

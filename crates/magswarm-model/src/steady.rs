@@ -169,8 +169,10 @@ mod tests {
         let l = 1.0 + c.log_base.log(1.0 + p.c_P * w.powf(p.q_P));
         let part = p.a_P * (fl.b / p.B_ref).powf(p.mu_P) * l;
         let grad = p.a_G * (fl.g_z / c.g_unit_t_per_m).powf(p.rho);
-        let sx = p.s_0 + p.a_K1 * (fl.k_xx.abs() / c.k_unit_t2_per_m2).powf(p.gamma_1) + grad + part;
-        let sy = p.s_0 + p.a_K2 * (fl.k_yy.abs() / c.k_unit_t2_per_m2).powf(p.gamma_2) + grad + part;
+        let sx =
+            p.s_0 + p.a_K1 * (fl.k_xx.abs() / c.k_unit_t2_per_m2).powf(p.gamma_1) + grad + part;
+        let sy =
+            p.s_0 + p.a_K2 * (fl.k_yy.abs() / c.k_unit_t2_per_m2).powf(p.gamma_2) + grad + part;
         let phi = (p.N * (w.powf(p.q) - 1.0)).exp();
         assert!((sp.s_x - sx).abs() < 1e-12 && (sp.s_y - sy).abs() < 1e-12);
         assert!((sp.phi - phi).abs() < 1e-14);

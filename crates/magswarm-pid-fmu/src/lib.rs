@@ -1,0 +1,1154 @@
+//! `MagSwarmPID.fmu`: the decoupled 2x2 PID of `magswarm-control` behind the generic FMI 2.0
+//! Co-Simulation shell of `magswarm-fmi2`, so that the closed loop of issue 4 runs in any
+//! co-simulation master (fmpy, libcosim, an SSP or OSP system file wiring it to `MagSwarm.fmu`).
+//!
+//! This crate only maps FMI variables onto [`magswarm_control::Controller`]; the controller
+//! (feedforward from the inverse steady map, a model-predicted reference, decoupling, anti-windup,
+//! saturation and rate limits) is the library's, unchanged, so this FMU, the Rust harness
+//! (`examples/pid_tracking.rs`, controller in-process) and the fmpy script
+//! (`examples/pid_tracking.py`, this FMU) compute the same commands.
+//!
+//! # Interface (SI, display units for people)
+//!
+//! | name | causality | unit | meaning |
+//! | --- | --- | --- | --- |
+//! | `r1_ref`, `r2_ref` | input | m (mm) | setpoints r1*, r2* |
+//! | `r1`, `r2` | input | m (mm) | measured radii (connect to the plant's `r1`, `r2`) |
+//! | `z_m` | output | m (mm) | commanded magnet-swarm distance (connect to the plant's `z_m`) |
+//! | `omega_m` | output | rad/s (Hz) | commanded field angular velocity (to the plant's `omega_m`) |
+//! | `target_feasible` | output, Boolean | | the setpoint is reachable (distance <= `feasible_tol`) |
+//! | `r1_goal`, `r2_goal` | output | m (mm) | the nearest reachable radii the loop settles on |
+//! | `target_distance` | output | m (mm) | distance from the setpoint to the reachable goal |
+//! | `r1_reference`, `r2_reference` | output | m (mm) | the reference the PID tracked at the last sample (model prediction) |
+//! | `z_m_ff`, `omega_m_ff` | output | m, rad/s | feedforward (rate-limited ramp to the inverse map) |
+//! | `saturated`, `rate_limited` | output, Boolean | | the last command was clipped by the envelope / a rate limit |
+//! | `samples` | output, Integer | | controller samples taken |
+//!
+//! Parameters ([`PARAMS`]; the `PidConfig` JSON field each one maps to in brackets):
+//! `sample_time` [s] (`sample_time_s`); gains, tunable while stepping (bumpless, through
+//! `Controller::set_gains`): `kp_r1`, `kp_r2` [1] (`gains.kp`), `ki_r1`, `ki_r2` [1/s]
+//! (`gains.ki`), `kd_r1`, `kd_r2` [s] (`gains.kd`), `derivative_filter` [s]
+//! (`gains.derivative_filter_s`), `tracking_time` [s] (`gains.tracking_time_s`), Boolean
+//! `conditional_integration`; limits: `z_min`, `z_max` [m], `f_min`, `f_max` [Hz],
+//! `z_rate` [m/s], `f_rate` [Hz/s] (`limits.*`); Boolean `feedforward`, `reference_filter` [s],
+//! `decoupler_damping` [1], `feasible_tol` [m]; the bumpless start `z_start` [m],
+//! `omega_start` [rad/s] (the inputs in force when the loop closes, i.e. the plant's initial
+//! inputs); String `model_file` (a `magswarm-model/1` JSON: the plant the controller assumes;
+//! empty: `resources/model.json`, else the built-in paper model) and String `config_file`
+//! (a `magswarm-pid/1` JSON; empty: `resources/pid.json`, else the library's defaults).
+//!
+//! Precedence: the configuration is `config_file`'s (or the FMU's default); every numeric or
+//! Boolean parameter that is set to a value *other than its start value* overrides the
+//! corresponding field, whatever the order of the calls. (Setting a parameter to its start value
+//! is therefore a no-op before initialisation: importers that write every start value do not
+//! erase `config_file`.) The configuration is validated at `fmi2ExitInitializationMode`.
+//!
+//! # Timing
+//!
+//! The controller is discrete: it samples at `t_k = t_start + k * sample_time` (t_start from
+//! `fmi2SetupExperiment`). `fmi2DoStep(t, h)` takes every sample with `t_k` in `[t, t + h)`:
+//! each uses the inputs set before that `doStep` (the master holds them over the step), and the
+//! outputs after the `doStep` are the command of the last sample taken, held until the next. So
+//! with `h = sample_time` (the intended use) each `doStep(t_k, h)` computes the command for
+//! `[t_k, t_k + h)` from the measurement at `t_k`: a sequential master (read plant, set controller
+//! inputs, step controller, read command, set plant inputs, step plant) has no extra delay, a
+//! Jacobi master (libcosim) one sample. With `h` a multiple `n * sample_time` each doStep takes
+//! `n` samples of the same (held) measurement. With `h` not a multiple, samples fall inside
+//! communication steps: they still happen at `t_k`, with the inputs of the communication point
+//! before it, and their command becomes visible at the next communication point (a delay of up
+//! to `h`); steps shorter than `sample_time` hold the outputs. Times within `1e-6 * sample_time`
+//! of a sample instant count as that instant.
+//!
+//! At the first sample the controller starts bumplessly (`Controller::reset`) from
+//! `(z_start, omega_start)` and the first measurement. Before it, the outputs are
+//! `(z_start, omega_start)` and the goal outputs are the inverse map of the initial setpoint.
+//!
+//! # FMU state
+//!
+//! `magswarm-control` keeps its state private, so the serialized FMU state is the controller's
+//! history (configuration, model, and every sample's measurement and setpoint, every gain change)
+//! and deserialisation replays it through a fresh controller: the controller is deterministic, so
+//! the replayed state is bit-identical. In-memory states (`fmi2GetFMUstate`) are plain clones.
+
+use std::path::{Path, PathBuf};
+use std::sync::LazyLock;
+
+use magswarm_control::{inverse_with, Controller, Gains, InverseOptions, PidConfig};
+use magswarm_fmi2::bytes::{ByteReader, PutBytes};
+use magswarm_fmi2::units;
+use magswarm_fmi2::{
+    Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo, Start,
+    UnitDefinition, VarType, Variable, XmlOptions,
+};
+use magswarm_model::Model;
+
+/// Model identifier (file name of the shared library and of the FMU).
+pub const MODEL_IDENTIFIER: &str = "MagSwarmPID";
+/// Name of the plant model JSON inside the FMU's `resources/`.
+pub const RESOURCE_MODEL: &str = "model.json";
+/// Name of the controller configuration JSON inside the FMU's `resources/`.
+pub const RESOURCE_CONFIG: &str = "pid.json";
+
+/// Value references.
+pub mod vr {
+    /// Input: setpoint r1* [m].
+    pub const R1_REF: u32 = 1;
+    /// Input: setpoint r2* [m].
+    pub const R2_REF: u32 = 2;
+    /// Input: measured r1 [m].
+    pub const R1: u32 = 3;
+    /// Input: measured r2 [m].
+    pub const R2: u32 = 4;
+    /// Output: commanded z_m [m].
+    pub const Z_M: u32 = 10;
+    /// Output: commanded omega_m [rad/s].
+    pub const OMEGA_M: u32 = 11;
+    /// Output: nearest reachable r1 [m].
+    pub const R1_GOAL: u32 = 12;
+    /// Output: nearest reachable r2 [m].
+    pub const R2_GOAL: u32 = 13;
+    /// Output: distance setpoint - goal [m].
+    pub const TARGET_DISTANCE: u32 = 14;
+    /// Output: reference tracked at the last sample, r1 [m].
+    pub const R1_REFERENCE: u32 = 15;
+    /// Output: reference tracked at the last sample, r2 [m].
+    pub const R2_REFERENCE: u32 = 16;
+    /// Output: feedforward z_m [m].
+    pub const Z_M_FF: u32 = 17;
+    /// Output: feedforward omega_m [rad/s].
+    pub const OMEGA_M_FF: u32 = 18;
+    /// Output (Boolean): setpoint reachable.
+    pub const TARGET_FEASIBLE: u32 = 20;
+    /// Output (Boolean): last command clipped by the envelope.
+    pub const SATURATED: u32 = 21;
+    /// Output (Boolean): last command clipped by a rate limit.
+    pub const RATE_LIMITED: u32 = 22;
+    /// Output (Integer): samples taken.
+    pub const SAMPLES: u32 = 23;
+    /// Parameter: z_m in force when the loop closes [m].
+    pub const Z_START: u32 = 30;
+    /// Parameter: omega_m in force when the loop closes [rad/s].
+    pub const OMEGA_START: u32 = 31;
+    /// Parameter (Boolean): feedforward + model reference.
+    pub const FEEDFORWARD: u32 = 32;
+    /// Parameter (Boolean, tunable): conditional integration.
+    pub const CONDITIONAL_INTEGRATION: u32 = 33;
+    /// Parameter (String): plant model JSON.
+    pub const MODEL_FILE: u32 = 40;
+    /// Parameter (String): controller configuration JSON.
+    pub const CONFIG_FILE: u32 = 41;
+    /// First value reference of the numeric configuration parameters ([`super::PARAMS`]).
+    pub const PARAM_BASE: u32 = 100;
+}
+
+/// Default setpoint (the seed scenario's first segment) [m].
+pub const R_REF_START: [f64; 2] = [0.007, 0.011];
+/// Default measurement start values (the plant's formed radii near 8.5 mm, 4 Hz) [m].
+pub const R_START: [f64; 2] = [0.008, 0.011];
+/// Default `z_start` [m] (the seed's start, z_m 8.5 mm).
+pub const Z_START: f64 = 0.0085;
+/// Default `omega_start` [rad/s] (4 Hz).
+pub const OMEGA_START: f64 = 4.0 * std::f64::consts::TAU;
+
+type Get = fn(&PidConfig) -> f64;
+type Set = fn(&mut PidConfig, f64);
+
+/// A numeric field of [`PidConfig`] as an FMI parameter (SI on the interface).
+pub struct ParamSpec {
+    /// FMI name.
+    pub name: &'static str,
+    /// Unit.
+    pub unit: &'static str,
+    /// Display unit, if any.
+    pub display_unit: Option<&'static str>,
+    /// Tunable while stepping (the gains).
+    pub tunable: bool,
+    /// Description (names the `PidConfig` field).
+    pub description: &'static str,
+    /// SI value from a configuration.
+    pub get: Get,
+    /// Write an SI value into a configuration.
+    pub set: Set,
+}
+
+const MM: f64 = 1e-3;
+
+/// Numeric parameters in value-reference order (vr = PARAM_BASE + index).
+pub static PARAMS: &[ParamSpec] = &[
+    ParamSpec { name: "sample_time", unit: "s", display_unit: None, tunable: false,
+        description: "controller sample time (sample_time_s); use it as the communication step",
+        get: |c| c.sample_time_s, set: |c, v| c.sample_time_s = v },
+    ParamSpec { name: "kp_r1", unit: "1", display_unit: None, tunable: true,
+        description: "proportional gain of r1 in radius space, mm per mm (gains.kp[0])",
+        get: |c| c.gains.kp[0], set: |c, v| c.gains.kp[0] = v },
+    ParamSpec { name: "kp_r2", unit: "1", display_unit: None, tunable: true,
+        description: "proportional gain of r2 (gains.kp[1])",
+        get: |c| c.gains.kp[1], set: |c, v| c.gains.kp[1] = v },
+    ParamSpec { name: "ki_r1", unit: "1/s", display_unit: None, tunable: true,
+        description: "integral gain of r1 (gains.ki[0])",
+        get: |c| c.gains.ki[0], set: |c, v| c.gains.ki[0] = v },
+    ParamSpec { name: "ki_r2", unit: "1/s", display_unit: None, tunable: true,
+        description: "integral gain of r2 (gains.ki[1])",
+        get: |c| c.gains.ki[1], set: |c, v| c.gains.ki[1] = v },
+    ParamSpec { name: "kd_r1", unit: "s", display_unit: None, tunable: true,
+        description: "derivative gain of r1 (gains.kd[0])",
+        get: |c| c.gains.kd[0], set: |c, v| c.gains.kd[0] = v },
+    ParamSpec { name: "kd_r2", unit: "s", display_unit: None, tunable: true,
+        description: "derivative gain of r2 (gains.kd[1])",
+        get: |c| c.gains.kd[1], set: |c, v| c.gains.kd[1] = v },
+    ParamSpec { name: "derivative_filter", unit: "s", display_unit: None, tunable: true,
+        description: "time constant of the derivative's first-order filter (gains.derivative_filter_s)",
+        get: |c| c.gains.derivative_filter_s, set: |c, v| c.gains.derivative_filter_s = v },
+    ParamSpec { name: "tracking_time", unit: "s", display_unit: None, tunable: true,
+        description: "anti-windup back-calculation time constant, 0 disables (gains.tracking_time_s)",
+        get: |c| c.gains.tracking_time_s, set: |c, v| c.gains.tracking_time_s = v },
+    ParamSpec { name: "z_min", unit: "m", display_unit: Some("mm"), tunable: false,
+        description: "smallest commanded z_m (limits.z_min_mm)",
+        get: |c| c.limits.z_min_mm * MM, set: |c, v| c.limits.z_min_mm = v / MM },
+    ParamSpec { name: "z_max", unit: "m", display_unit: Some("mm"), tunable: false,
+        description: "largest commanded z_m (limits.z_max_mm)",
+        get: |c| c.limits.z_max_mm * MM, set: |c, v| c.limits.z_max_mm = v / MM },
+    ParamSpec { name: "f_min", unit: "Hz", display_unit: None, tunable: false,
+        description: "lowest commanded field frequency (limits.f_min_hz)",
+        get: |c| c.limits.f_min_hz, set: |c, v| c.limits.f_min_hz = v },
+    ParamSpec { name: "f_max", unit: "Hz", display_unit: None, tunable: false,
+        description: "highest commanded field frequency (limits.f_max_hz)",
+        get: |c| c.limits.f_max_hz, set: |c, v| c.limits.f_max_hz = v },
+    ParamSpec { name: "z_rate", unit: "m/s", display_unit: Some("mm/s"), tunable: false,
+        description: "rate limit of z_m, the robot arm (limits.z_rate_mm_s)",
+        get: |c| c.limits.z_rate_mm_s * MM, set: |c, v| c.limits.z_rate_mm_s = v / MM },
+    ParamSpec { name: "f_rate", unit: "Hz/s", display_unit: None, tunable: false,
+        description: "rate limit of the field frequency, the stepper (limits.f_rate_hz_s)",
+        get: |c| c.limits.f_rate_hz_s, set: |c, v| c.limits.f_rate_hz_s = v },
+    ParamSpec { name: "reference_filter", unit: "s", display_unit: None, tunable: false,
+        description: "setpoint prefilter time constant without feedforward (reference_filter_s)",
+        get: |c| c.reference_filter_s, set: |c, v| c.reference_filter_s = v },
+    ParamSpec { name: "decoupler_damping", unit: "1", display_unit: None, tunable: false,
+        description: "damping of the decoupler's inverse relative to the largest singular value (decoupler_damping)",
+        get: |c| c.decoupler_damping, set: |c, v| c.decoupler_damping = v },
+    ParamSpec { name: "feasible_tol", unit: "m", display_unit: Some("mm"), tunable: false,
+        description: "distance above which a setpoint is reported infeasible (feasible_tol_mm)",
+        get: |c| c.feasible_tol_mm * MM, set: |c, v| c.feasible_tol_mm = v / MM },
+];
+
+fn param_index(vr: u32) -> Option<usize> {
+    vr.checked_sub(vr::PARAM_BASE)
+        .map(|i| i as usize)
+        .filter(|&i| i < PARAMS.len())
+}
+
+static UNITS: &[UnitDefinition] = &[
+    units::METRE,
+    units::RAD_PER_SECOND,
+    units::SECOND,
+    units::HERTZ,
+    units::ONE,
+    UnitDefinition {
+        name: "1/s",
+        base: units::base(0, 0, -1, 0, 0, 0, 0, 0),
+        display_units: &[],
+    },
+    UnitDefinition {
+        name: "m/s",
+        base: units::base(0, 1, -1, 0, 0, 0, 0, 0),
+        display_units: &[units::display("mm/s", 1000.0)],
+    },
+    UnitDefinition {
+        name: "Hz/s",
+        base: units::base(0, 0, -2, 0, 0, 0, 0, 0),
+        display_units: &[],
+    },
+];
+
+static LOG_CATEGORIES: &[LogCategory] = &[
+    LogCategory {
+        name: "logSetpoint",
+        description: "new setpoints: feasible, or the nearest reachable radii",
+    },
+    LogCategory {
+        name: "logConfig",
+        description: "configuration and model loading (config_file, model_file, resources)",
+    },
+];
+
+/// Outputs change only in doStep: no direct feedthrough from any input (which is what lets a
+/// master close the loop without an algebraic loop).
+const NONE: &[u32] = &[];
+
+fn build_variables() -> Vec<Variable> {
+    let cfg = PidConfig::default();
+    let m = |v: Variable| v.unit("m").display_unit("mm").nominal(0.01);
+    let out = |v: Variable| {
+        v.output()
+            .variability(magswarm_fmi2::Variability::Discrete)
+            .depends_on(NONE)
+    };
+    let mut v = vec![
+        m(Variable::real("r1_ref", vr::R1_REF).input().start_real(R_REF_START[0]))
+            .description("setpoint r1*"),
+        m(Variable::real("r2_ref", vr::R2_REF).input().start_real(R_REF_START[1]))
+            .description("setpoint r2*"),
+        m(Variable::real("r1", vr::R1).input().start_real(R_START[0]))
+            .description("measured radius r1 (connect the plant's r1)"),
+        m(Variable::real("r2", vr::R2).input().start_real(R_START[1]))
+            .description("measured radius r2 (connect the plant's r2)"),
+        m(out(Variable::real("z_m", vr::Z_M)))
+            .description("commanded magnet-swarm distance (connect to the plant's z_m)"),
+        out(Variable::real("omega_m", vr::OMEGA_M))
+            .unit("rad/s")
+            .display_unit("Hz")
+            .nominal(30.0)
+            .description("commanded field angular velocity (connect to the plant's omega_m)"),
+        m(out(Variable::real("r1_goal", vr::R1_GOAL)))
+            .description("nearest reachable r1 to the setpoint (the setpoint when feasible)"),
+        m(out(Variable::real("r2_goal", vr::R2_GOAL)))
+            .description("nearest reachable r2 to the setpoint (the setpoint when feasible)"),
+        m(out(Variable::real("target_distance", vr::TARGET_DISTANCE)))
+            .description("distance from the setpoint to the nearest reachable radii"),
+        m(out(Variable::real("r1_reference", vr::R1_REFERENCE)))
+            .description("reference tracked at the last sample (model prediction with feedforward)"),
+        m(out(Variable::real("r2_reference", vr::R2_REFERENCE)))
+            .description("reference tracked at the last sample (model prediction with feedforward)"),
+        m(out(Variable::real("z_m_ff", vr::Z_M_FF)))
+            .description("feedforward z_m (rate-limited ramp to the inverse map)"),
+        out(Variable::real("omega_m_ff", vr::OMEGA_M_FF))
+            .unit("rad/s")
+            .display_unit("Hz")
+            .description("feedforward omega_m (rate-limited ramp to the inverse map)"),
+        out(Variable::boolean("target_feasible", vr::TARGET_FEASIBLE))
+            .description("the setpoint is reachable (distance <= feasible_tol)"),
+        out(Variable::boolean("saturated", vr::SATURATED))
+            .description("the last command was clipped by the envelope"),
+        out(Variable::boolean("rate_limited", vr::RATE_LIMITED))
+            .description("the last command was clipped by a rate limit"),
+        out(Variable::integer("samples", vr::SAMPLES)).description("controller samples taken"),
+        Variable::real("z_start", vr::Z_START)
+            .parameter()
+            .start_real(Z_START)
+            .unit("m")
+            .display_unit("mm")
+            .description("z_m in force when the loop closes (the plant's initial input): bumpless start"),
+        Variable::real("omega_start", vr::OMEGA_START)
+            .parameter()
+            .start_real(OMEGA_START)
+            .unit("rad/s")
+            .display_unit("Hz")
+            .description("omega_m in force when the loop closes (the plant's initial input)"),
+        Variable::boolean("feedforward", vr::FEEDFORWARD)
+            .parameter()
+            .start_boolean(cfg.feedforward)
+            .description("feedforward from the inverse map with the model-predicted reference (feedforward)"),
+        Variable::boolean("conditional_integration", vr::CONDITIONAL_INTEGRATION)
+            .tunable_parameter()
+            .start_boolean(cfg.gains.conditional_integration)
+            .description("do not integrate into a saturation (gains.conditional_integration)"),
+        Variable::string("model_file", vr::MODEL_FILE)
+            .parameter()
+            .start_string("")
+            .description("model JSON (magswarm-model/1) of the plant the controller assumes; empty: resources/model.json or the paper model"),
+        Variable::string("config_file", vr::CONFIG_FILE)
+            .parameter()
+            .start_string("")
+            .description("controller configuration JSON (magswarm-pid/1); empty: resources/pid.json or the defaults; parameters set to other values than their start override it"),
+    ];
+    for (i, p) in PARAMS.iter().enumerate() {
+        let mut var = Variable::real(p.name, vr::PARAM_BASE + i as u32)
+            .start_real((p.get)(&cfg))
+            .unit(p.unit)
+            .description(p.description);
+        var = if p.tunable {
+            var.tunable_parameter()
+        } else {
+            var.parameter()
+        };
+        if let Some(d) = p.display_unit {
+            var = var.display_unit(d);
+        }
+        v.push(var);
+    }
+    v
+}
+
+static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
+    model_identifier: MODEL_IDENTIFIER,
+    model_name: "MagSwarmPID",
+    description: "Decoupled 2x2 PID with feedforward from the inverse steady map for the MagSwarm \
+                  plant: setpoints and measured radii in, magnet distance z_m and field angular \
+                  velocity omega_m out (discrete time, sample_time)",
+    version: env!("CARGO_PKG_VERSION"),
+    author: "magswarm",
+    copyright: None,
+    license: Some("MIT OR Apache-2.0"),
+    generation_tool: concat!("magswarm ", env!("CARGO_PKG_VERSION")),
+    naming_convention: Default::default(),
+    default_experiment: Some(DefaultExperiment {
+        start_time: Some(0.0),
+        stop_time: Some(180.0),
+        tolerance: None,
+        step_size: Some(0.05),
+    }),
+    units: UNITS,
+    log_categories: LOG_CATEGORIES,
+    variables: Box::leak(build_variables().into_boxed_slice()),
+});
+
+/// The static model information (variable table, units).
+pub fn model_info() -> &'static ModelInfo {
+    &INFO
+}
+
+/// The modelDescription.xml of an FMU whose default configuration is `baked` (the parameter
+/// start values are its values).
+pub fn model_description(baked: &PidConfig, generated_at: Option<String>) -> String {
+    let mut overrides: Vec<(u32, Start)> = PARAMS
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (vr::PARAM_BASE + i as u32, Start::Real((p.get)(baked))))
+        .collect();
+    overrides.push((vr::FEEDFORWARD, Start::Boolean(baked.feedforward)));
+    overrides.push((
+        vr::CONDITIONAL_INTEGRATION,
+        Start::Boolean(baked.gains.conditional_integration),
+    ));
+    magswarm_fmi2::model_description_xml::<MagSwarmPid>(&XmlOptions {
+        generation_date_and_time: generated_at,
+        start_overrides: overrides,
+    })
+}
+
+/// One entry of the controller's history (replayed to deserialize an FMU state).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Event {
+    /// A sample: measurement (r1, r2) and setpoint (r1*, r2*) [mm].
+    Sample([f64; 2], [f64; 2]),
+    /// A gain change (bumpless).
+    Gains(Gains),
+}
+
+/// One FMU instance.
+#[derive(Debug, Clone)]
+pub struct MagSwarmPid {
+    default_model: Model,
+    default_cfg: PidConfig,
+    model: Model,
+    model_file: String,
+    base_cfg: PidConfig,
+    config_file: String,
+    /// Numeric parameters set to other values than their start: (index into PARAMS, value).
+    overrides: Vec<(usize, f64)>,
+    feedforward: Option<bool>,
+    conditional_integration: Option<bool>,
+    z_start: f64,
+    omega_start: f64,
+    /// Inputs [m].
+    r_ref: [f64; 2],
+    y: [f64; 2],
+    /// Start time of the experiment (sample 0).
+    t0: f64,
+    /// The configuration and model the controller was built with.
+    cfg_init: Option<PidConfig>,
+    ctrl: Option<Controller>,
+    /// Samples taken.
+    k: u64,
+    events: Vec<Event>,
+    /// Outputs.
+    u: [f64; 2],
+    goal: [f64; 2],
+    distance: f64,
+    feasible: bool,
+    /// Setpoint the goal outputs belong to (mm).
+    goal_for: [f64; 2],
+}
+
+fn read_json_resource(dir: Option<&Path>, name: &str) -> Option<PathBuf> {
+    dir.map(|d| d.join(name)).filter(|p| p.is_file())
+}
+
+fn load_config(path: &Path) -> Result<PidConfig, Fmi2Err> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Fmi2Err::error(format!("cannot read {}: {e}", path.display())))?;
+    PidConfig::from_json(&text).map_err(|e| Fmi2Err::error(format!("{}: {e}", path.display())))
+}
+
+impl MagSwarmPid {
+    /// A fresh instance; defaults from `resource_dir/model.json` and `resource_dir/pid.json`
+    /// when present.
+    pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarmPid, Fmi2Err> {
+        let default_model = match read_json_resource(resource_dir, RESOURCE_MODEL) {
+            Some(p) => Model::load(&p).map_err(|e| Fmi2Err::error(format!("resources: {e}")))?,
+            None => Model::paper(),
+        };
+        let default_cfg = match read_json_resource(resource_dir, RESOURCE_CONFIG) {
+            Some(p) => load_config(&p)?,
+            None => PidConfig::default(),
+        };
+        Ok(MagSwarmPid {
+            model: default_model.clone(),
+            default_model,
+            base_cfg: default_cfg.clone(),
+            default_cfg,
+            model_file: String::new(),
+            config_file: String::new(),
+            overrides: Vec::new(),
+            feedforward: None,
+            conditional_integration: None,
+            z_start: Z_START,
+            omega_start: OMEGA_START,
+            r_ref: R_REF_START,
+            y: R_START,
+            t0: 0.0,
+            cfg_init: None,
+            ctrl: None,
+            k: 0,
+            events: Vec::new(),
+            u: [Z_START, OMEGA_START],
+            goal: R_REF_START,
+            distance: 0.0,
+            feasible: true,
+            goal_for: [f64::NAN; 2],
+        })
+    }
+
+    /// The configuration in force: `config_file` (or the default) plus the overrides.
+    pub fn effective_config(&self) -> PidConfig {
+        let mut c = self.base_cfg.clone();
+        for &(i, v) in &self.overrides {
+            (PARAMS[i].set)(&mut c, v);
+        }
+        if let Some(b) = self.feedforward {
+            c.feedforward = b;
+        }
+        if let Some(b) = self.conditional_integration {
+            c.gains.conditional_integration = b;
+        }
+        c
+    }
+
+    /// The model the controller assumes.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    fn set_override(&mut self, i: usize, v: f64) {
+        self.overrides.retain(|(j, _)| *j != i);
+        self.overrides.push((i, v));
+    }
+
+    fn setpoint_mm(&self) -> [f64; 2] {
+        [self.r_ref[0] * 1e3, self.r_ref[1] * 1e3]
+    }
+
+    /// Goal outputs for the current setpoint before the first sample (the controller's own
+    /// inverse with the same options once it runs).
+    fn update_goal_before_start(&mut self) {
+        let sp = self.setpoint_mm();
+        if sp == self.goal_for {
+            return;
+        }
+        let cfg = self.effective_config();
+        let opt = InverseOptions {
+            bounds: Some(cfg.limits.envelope()),
+            ..InverseOptions::default()
+        };
+        let inv = inverse_with(&self.model, sp[0], sp[1], &opt);
+        self.goal = [inv.r1 * 1e-3, inv.r2 * 1e-3];
+        self.distance = inv.distance_mm * 1e-3;
+        self.feasible = inv.distance_mm <= cfg.feasible_tol_mm;
+        self.goal_for = sp;
+    }
+
+    /// One controller sample with the inputs in force.
+    fn sample(&mut self, ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+        let y = [self.y[0] * 1e3, self.y[1] * 1e3];
+        let sp = self.setpoint_mm();
+        for (name, v) in [
+            ("r1", y[0]),
+            ("r2", y[1]),
+            ("r1_ref", sp[0]),
+            ("r2_ref", sp[1]),
+        ] {
+            if v <= 0.0 {
+                return Err(Fmi2Err::error(format!(
+                    "{name} = {v} mm at sample {}: radii must be positive",
+                    self.k
+                )));
+            }
+        }
+        let new_setpoint = self.k == 0 || sp != self.goal_for;
+        self.apply(Event::Sample(y, sp));
+        self.events.push(Event::Sample(y, sp));
+        if new_setpoint {
+            let ctrl = self.ctrl.as_ref().expect("sampled after initialisation");
+            ctx.debug(
+                "logSetpoint",
+                format!(
+                    "t = {:.3} s: {}",
+                    self.t0 + self.k as f64 * ctrl.sample_time(),
+                    ctrl.status_message()
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// Apply one event to the controller and update the outputs (also used by the replay).
+    fn apply(&mut self, ev: Event) {
+        let ctrl = self
+            .ctrl
+            .as_mut()
+            .expect("controller built at initialisation");
+        match ev {
+            Event::Sample(y, sp) => {
+                if self.k == 0 {
+                    ctrl.reset(self.z_start, self.omega_start, y);
+                }
+                let (z, w) = ctrl.step(y, sp);
+                self.u = [z, w];
+                if let Some(s) = ctrl.setpoint_status() {
+                    self.goal = [s.r1 * 1e-3, s.r2 * 1e-3];
+                    self.distance = s.distance_mm * 1e-3;
+                }
+                self.feasible = !ctrl.target_infeasible();
+                self.goal_for = sp;
+                self.k += 1;
+            }
+            Event::Gains(g) => ctrl.set_gains(g),
+        }
+    }
+
+    fn build_controller(&mut self) -> Result<(), Fmi2Err> {
+        let cfg = self.effective_config();
+        let ctrl = Controller::new(self.model.clone(), cfg.clone())
+            .map_err(|e| Fmi2Err::error(e.to_string()))?;
+        self.cfg_init = Some(cfg);
+        self.ctrl = Some(ctrl);
+        self.k = 0;
+        self.events.clear();
+        self.u = [self.z_start, self.omega_start];
+        Ok(())
+    }
+}
+
+impl FmuModel for MagSwarmPid {
+    fn model_info() -> &'static ModelInfo {
+        &INFO
+    }
+
+    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+        let m = MagSwarmPid::new(args.resource_dir)?;
+        ctx.debug(
+            "logConfig",
+            format!(
+                "default model \"{}\", sample time {} s",
+                m.model.name, m.default_cfg.sample_time_s
+            ),
+        );
+        Ok(m)
+    }
+
+    fn setup_experiment(
+        &mut self,
+        _ctx: &mut Ctx<'_>,
+        _tolerance: Option<f64>,
+        start_time: f64,
+        _stop_time: Option<f64>,
+    ) -> Result<(), Fmi2Err> {
+        self.t0 = start_time;
+        Ok(())
+    }
+
+    fn exit_initialization_mode(&mut self, ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+        self.build_controller()?;
+        self.goal_for = [f64::NAN; 2];
+        self.update_goal_before_start();
+        ctx.debug(
+            "logConfig",
+            format!("configuration: {}", self.effective_config().to_json()),
+        );
+        Ok(())
+    }
+
+    fn do_step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), Fmi2Err> {
+        let ts = self
+            .ctrl
+            .as_ref()
+            .map(|c| c.sample_time())
+            .ok_or_else(|| Fmi2Err::error("doStep before initialisation"))?;
+        let t_end = current_time + step;
+        let eps = 1e-6 * ts;
+        // Samples left behind (the master started later than the experiment's start time, or
+        // jumped): catch up with the inputs in force.
+        while self.t0 + self.k as f64 * ts < t_end - eps {
+            self.sample(ctx)?;
+        }
+        Ok(())
+    }
+
+    fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
+        if let Some(i) = param_index(vr) {
+            return Ok((PARAMS[i].get)(&self.effective_config()));
+        }
+        if self.k == 0 {
+            self.update_goal_before_start();
+        }
+        let last = self.ctrl.as_ref().filter(|_| self.k > 0).map(|c| *c.last());
+        Ok(match vr {
+            vr::R1_REF => self.r_ref[0],
+            vr::R2_REF => self.r_ref[1],
+            vr::R1 => self.y[0],
+            vr::R2 => self.y[1],
+            vr::Z_M => self.u[0],
+            vr::OMEGA_M => self.u[1],
+            vr::R1_GOAL => self.goal[0],
+            vr::R2_GOAL => self.goal[1],
+            vr::TARGET_DISTANCE => self.distance,
+            vr::R1_REFERENCE => last.map_or(self.y[0], |l| l.reference_mm[0] * 1e-3),
+            vr::R2_REFERENCE => last.map_or(self.y[1], |l| l.reference_mm[1] * 1e-3),
+            vr::Z_M_FF => last.map_or(self.u[0], |l| l.feedforward[0]),
+            vr::OMEGA_M_FF => last.map_or(self.u[1], |l| l.feedforward[1]),
+            vr::Z_START => self.z_start,
+            vr::OMEGA_START => self.omega_start,
+            other => return Err(Fmi2Err::unknown_vr(VarType::Real, other)),
+        })
+    }
+
+    fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), Fmi2Err> {
+        if let Some(i) = param_index(vr) {
+            let p = &PARAMS[i];
+            if let Some(ctrl) = self.ctrl.as_mut() {
+                // Stepping: only the tunable gains get here (the shell refuses the others).
+                let mut cfg = self.cfg_init.clone().expect("built with the controller");
+                cfg.gains = ctrl.config().gains;
+                (p.set)(&mut cfg, value);
+                cfg.validate()
+                    .map_err(|e| Fmi2Err::error(format!("{}: {e}", p.name)))?;
+                ctrl.set_gains(cfg.gains);
+                self.events.push(Event::Gains(cfg.gains));
+                self.set_override(i, value);
+                return Ok(());
+            }
+            if value == (p.get)(&self.default_cfg) {
+                self.overrides.retain(|(j, _)| *j != i);
+            } else {
+                self.set_override(i, value);
+            }
+            return Ok(());
+        }
+        match vr {
+            vr::R1_REF => self.r_ref[0] = value,
+            vr::R2_REF => self.r_ref[1] = value,
+            vr::R1 => self.y[0] = value,
+            vr::R2 => self.y[1] = value,
+            vr::Z_START => self.z_start = value,
+            vr::OMEGA_START => self.omega_start = value,
+            other => return Err(Fmi2Err::unknown_vr(VarType::Real, other)),
+        }
+        Ok(())
+    }
+
+    fn get_boolean(&mut self, vr: u32) -> Result<bool, Fmi2Err> {
+        if self.k == 0 {
+            self.update_goal_before_start();
+        }
+        let last = self.ctrl.as_ref().filter(|_| self.k > 0).map(|c| *c.last());
+        match vr {
+            vr::TARGET_FEASIBLE => Ok(self.feasible),
+            vr::SATURATED => Ok(last.is_some_and(|l| l.saturated.iter().any(|&s| s))),
+            vr::RATE_LIMITED => Ok(last.is_some_and(|l| l.rate_limited.iter().any(|&s| s))),
+            vr::FEEDFORWARD => Ok(self.effective_config().feedforward),
+            vr::CONDITIONAL_INTEGRATION => {
+                Ok(self.effective_config().gains.conditional_integration)
+            }
+            other => Err(Fmi2Err::unknown_vr(VarType::Boolean, other)),
+        }
+    }
+
+    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: bool) -> Result<(), Fmi2Err> {
+        match vr {
+            vr::FEEDFORWARD => {
+                self.feedforward = (value != self.default_cfg.feedforward).then_some(value);
+            }
+            vr::CONDITIONAL_INTEGRATION => {
+                if let Some(ctrl) = self.ctrl.as_mut() {
+                    let mut g = ctrl.config().gains;
+                    g.conditional_integration = value;
+                    ctrl.set_gains(g);
+                    self.events.push(Event::Gains(g));
+                    self.conditional_integration = Some(value);
+                } else {
+                    self.conditional_integration =
+                        (value != self.default_cfg.gains.conditional_integration).then_some(value);
+                }
+            }
+            other => return Err(Fmi2Err::unknown_vr(VarType::Boolean, other)),
+        }
+        Ok(())
+    }
+
+    fn get_integer(&mut self, vr: u32) -> Result<i32, Fmi2Err> {
+        match vr {
+            vr::SAMPLES => Ok(self.k.min(i32::MAX as u64) as i32),
+            other => Err(Fmi2Err::unknown_vr(VarType::Integer, other)),
+        }
+    }
+
+    fn get_string(&mut self, vr: u32) -> Result<String, Fmi2Err> {
+        match vr {
+            vr::MODEL_FILE => Ok(self.model_file.clone()),
+            vr::CONFIG_FILE => Ok(self.config_file.clone()),
+            other => Err(Fmi2Err::unknown_vr(VarType::String, other)),
+        }
+    }
+
+    fn set_string(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: &str) -> Result<(), Fmi2Err> {
+        match vr {
+            vr::MODEL_FILE => {
+                self.model = if value.is_empty() {
+                    self.default_model.clone()
+                } else {
+                    Model::load(Path::new(value))
+                        .map_err(|e| Fmi2Err::error(format!("model_file: {e}")))?
+                };
+                self.model_file = value.to_string();
+                self.goal_for = [f64::NAN; 2];
+                ctx.debug(
+                    "logConfig",
+                    format!("model_file {value:?}: \"{}\"", self.model.name),
+                );
+            }
+            vr::CONFIG_FILE => {
+                self.base_cfg = if value.is_empty() {
+                    self.default_cfg.clone()
+                } else {
+                    load_config(Path::new(value))
+                        .map_err(|e| Fmi2Err::error(format!("config_file: {}", e.message)))?
+                };
+                self.config_file = value.to_string();
+                self.goal_for = [f64::NAN; 2];
+                ctx.debug("logConfig", format!("config_file {value:?} loaded"));
+            }
+            other => return Err(Fmi2Err::unknown_vr(VarType::String, other)),
+        }
+        Ok(())
+    }
+
+    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
+        let model = self
+            .model
+            .to_json()
+            .map_err(|e| Fmi2Err::error(format!("serialize model: {e}")))?;
+        out.put_str(&model);
+        out.put_str(&self.model_file);
+        out.put_str(&self.base_cfg.to_json());
+        out.put_str(&self.config_file);
+        out.put_u32(self.overrides.len() as u32);
+        for &(i, v) in &self.overrides {
+            out.put_u32(i as u32);
+            out.put_f64(v);
+        }
+        for b in [self.feedforward, self.conditional_integration] {
+            out.put_u8(match b {
+                None => 0,
+                Some(false) => 1,
+                Some(true) => 2,
+            });
+        }
+        for x in [
+            self.z_start,
+            self.omega_start,
+            self.r_ref[0],
+            self.r_ref[1],
+            self.y[0],
+            self.y[1],
+            self.t0,
+        ] {
+            out.put_f64(x);
+        }
+        match &self.cfg_init {
+            None => out.put_bool(false),
+            Some(c) => {
+                out.put_bool(true);
+                out.put_str(&c.to_json());
+                out.put_u64(self.events.len() as u64);
+                for ev in &self.events {
+                    match ev {
+                        Event::Sample(y, sp) => {
+                            out.put_u8(0);
+                            for x in [y[0], y[1], sp[0], sp[1]] {
+                                out.put_f64(x);
+                            }
+                        }
+                        Event::Gains(g) => {
+                            out.put_u8(1);
+                            let json = serde_json::to_string(g)
+                                .map_err(|e| Fmi2Err::error(format!("serialize gains: {e}")))?;
+                            out.put_str(&json);
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
+        let bad = |e: String| Fmi2Err::error(format!("deserialize: {e}"));
+        let mut rd = ByteReader::new(bytes);
+        let model = Model::from_json_str(rd.str()?, "FMU state").map_err(|e| bad(e.to_string()))?;
+        let model_file = rd.str()?.to_string();
+        let base_cfg = PidConfig::from_json(rd.str()?).map_err(|e| bad(e.to_string()))?;
+        let config_file = rd.str()?.to_string();
+        let n = rd.u32()? as usize;
+        let mut overrides = Vec::with_capacity(n.min(PARAMS.len()));
+        for _ in 0..n {
+            let i = rd.u32()? as usize;
+            let v = rd.f64()?;
+            if i >= PARAMS.len() {
+                return Err(bad(format!("parameter index {i}")));
+            }
+            overrides.push((i, v));
+        }
+        let mut tri = || -> Result<Option<bool>, Fmi2Err> {
+            Ok(match rd.u8()? {
+                0 => None,
+                1 => Some(false),
+                2 => Some(true),
+                x => return Err(bad(format!("flag {x}"))),
+            })
+        };
+        let (feedforward, conditional_integration) = (tri()?, tri()?);
+        let mut xs = [0.0; 7];
+        for x in &mut xs {
+            *x = rd.f64()?;
+        }
+        let mut fresh = self.clone();
+        fresh.model = model;
+        fresh.model_file = model_file;
+        fresh.base_cfg = base_cfg;
+        fresh.config_file = config_file;
+        fresh.overrides = overrides;
+        fresh.feedforward = feedforward;
+        fresh.conditional_integration = conditional_integration;
+        fresh.z_start = xs[0];
+        fresh.omega_start = xs[1];
+        fresh.r_ref = [xs[2], xs[3]];
+        fresh.t0 = xs[6];
+        fresh.goal_for = [f64::NAN; 2];
+        fresh.events.clear();
+        fresh.k = 0;
+        if rd.bool()? {
+            let cfg = PidConfig::from_json(rd.str()?).map_err(|e| bad(e.to_string()))?;
+            let ctrl = Controller::new(fresh.model.clone(), cfg.clone())
+                .map_err(|e| bad(e.to_string()))?;
+            fresh.cfg_init = Some(cfg);
+            fresh.ctrl = Some(ctrl);
+            fresh.u = [fresh.z_start, fresh.omega_start];
+            fresh.update_goal_before_start();
+            let n = rd.u64()?;
+            for _ in 0..n {
+                let ev = match rd.u8()? {
+                    0 => {
+                        let v = [rd.f64()?, rd.f64()?, rd.f64()?, rd.f64()?];
+                        Event::Sample([v[0], v[1]], [v[2], v[3]])
+                    }
+                    1 => Event::Gains(
+                        serde_json::from_str(rd.str()?).map_err(|e| bad(e.to_string()))?,
+                    ),
+                    x => return Err(bad(format!("event tag {x}"))),
+                };
+                fresh.apply(ev);
+                fresh.events.push(ev);
+            }
+        } else {
+            fresh.cfg_init = None;
+            fresh.ctrl = None;
+            fresh.u = [fresh.z_start, fresh.omega_start];
+        }
+        rd.finish()?;
+        fresh.y = [xs[4], xs[5]];
+        *self = fresh;
+        Ok(())
+    }
+
+    /// The outputs change only in doStep, so within a communication point they do not depend
+    /// on the inputs: the directional derivatives with respect to inputs are exactly zero.
+    fn directional_derivative(
+        &mut self,
+        unknowns: &[u32],
+        knowns: &[u32],
+        _dv_known: &[f64],
+    ) -> Result<Vec<f64>, Fmi2Err> {
+        for k in knowns {
+            if ![vr::R1_REF, vr::R2_REF, vr::R1, vr::R2].contains(k) {
+                return Err(Fmi2Err::error(format!(
+                    "directional derivative: value reference {k} is not an input"
+                )));
+            }
+        }
+        Ok(vec![0.0; unknowns.len()])
+    }
+}
+
+#[cfg(feature = "export")]
+magswarm_fmi2::export_fmi2!(MagSwarmPid);
+
+/// The modelDescription.xml of this very library with the start values of the configuration
+/// JSON `config_json` (null: the library's defaults). Packaging calls this through the compiled
+/// `.so`, so the XML in the FMU always comes from the binary beside it. Returns null on a bad
+/// configuration. Free the result with [`magswarm_pid_free_string`].
+///
+/// # Safety
+/// `config_json` must be null or a valid NUL-terminated string.
+#[cfg(feature = "export")]
+#[no_mangle]
+pub unsafe extern "C" fn magswarm_pid_model_description(
+    config_json: *const std::ffi::c_char,
+) -> *mut std::ffi::c_char {
+    std::panic::catch_unwind(|| {
+        let cfg = if config_json.is_null() {
+            PidConfig::default()
+        } else {
+            let text = std::ffi::CStr::from_ptr(config_json).to_str().ok()?;
+            PidConfig::from_json(text).ok()?
+        };
+        std::ffi::CString::new(model_description(&cfg, None))
+            .ok()
+            .map(|c| c.into_raw())
+    })
+    .ok()
+    .flatten()
+    .unwrap_or(std::ptr::null_mut())
+}
+
+/// Free a string returned by [`magswarm_pid_model_description`].
+///
+/// # Safety
+/// `s` must come from [`magswarm_pid_model_description`] and not be freed twice.
+#[cfg(feature = "export")]
+#[no_mangle]
+pub unsafe extern "C" fn magswarm_pid_free_string(s: *mut std::ffi::c_char) {
+    if !s.is_null() {
+        drop(std::ffi::CString::from_raw(s));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ready() -> MagSwarmPid {
+        let mut m = MagSwarmPid::new(None).unwrap();
+        let mut ctx = Ctx::silent();
+        m.setup_experiment(&mut ctx, None, 0.0, None).unwrap();
+        m.exit_initialization_mode(&mut ctx).unwrap();
+        m
+    }
+
+    #[test]
+    fn xml_is_generated_and_names_the_interface() {
+        let xml = model_description(&PidConfig::default(), None);
+        for name in [
+            "r1_ref",
+            "r2_ref",
+            "r1",
+            "r2",
+            "z_m",
+            "omega_m",
+            "target_feasible",
+            "r1_goal",
+            "r2_goal",
+            "model_file",
+            "config_file",
+            "sample_time",
+            "kp_r1",
+            "z_rate",
+            "f_rate",
+        ] {
+            assert!(xml.contains(&format!("name=\"{name}\"")), "missing {name}");
+        }
+        assert!(xml.contains("modelIdentifier=\"MagSwarmPID\""));
+    }
+
+    #[test]
+    fn same_commands_as_the_library_controller() {
+        let mut fmu = ready();
+        let mut ctrl = Controller::new(Model::paper(), PidConfig::default()).unwrap();
+        let mut ctx = Ctx::silent();
+        let y = [8.1, 11.2];
+        ctrl.reset(Z_START, OMEGA_START, y);
+        fmu.r_ref = [0.008, 0.011];
+        fmu.y = [y[0] * 1e-3, y[1] * 1e-3];
+        for k in 0..20 {
+            let t = k as f64 * 0.05;
+            fmu.do_step(&mut ctx, t, 0.05).unwrap();
+            let (z, w) = ctrl.step([fmu.y[0] * 1e3, fmu.y[1] * 1e3], [8.0, 11.0]);
+            assert!(
+                (fmu.u[0] - z).abs() < 1e-15 && (fmu.u[1] - w).abs() < 1e-12,
+                "sample {k}"
+            );
+        }
+        assert_eq!(fmu.k, 20);
+    }
+
+    #[test]
+    fn non_multiple_steps_sample_at_the_sample_instants() {
+        let mut fmu = ready();
+        let mut ctx = Ctx::silent();
+        fmu.do_step(&mut ctx, 0.0, 0.02).unwrap(); // sample 0 at t = 0
+        assert_eq!(fmu.k, 1);
+        fmu.do_step(&mut ctx, 0.02, 0.02).unwrap(); // none in [0.02, 0.04)
+        assert_eq!(fmu.k, 1);
+        fmu.do_step(&mut ctx, 0.04, 0.02).unwrap(); // t = 0.05
+        assert_eq!(fmu.k, 2);
+        fmu.do_step(&mut ctx, 0.06, 0.2).unwrap(); // 0.1, 0.15, 0.2, 0.25
+        assert_eq!(fmu.k, 6);
+    }
+
+    #[test]
+    fn state_round_trips_through_bytes_by_replay() {
+        let mut fmu = ready();
+        let mut ctx = Ctx::silent();
+        for k in 0..40 {
+            if k == 20 {
+                fmu.r_ref = [0.009, 0.011];
+                fmu.set_real(&mut ctx, vr::PARAM_BASE + 1, 0.5).unwrap(); // kp_r1, bumpless
+            }
+            fmu.y = [0.008 + 1e-5 * k as f64, 0.011];
+            fmu.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+        }
+        let mut bytes = Vec::new();
+        fmu.serialize_state(&mut bytes).unwrap();
+        let mut other = ready();
+        other.deserialize_state(&bytes).unwrap();
+        assert_eq!(other.k, fmu.k);
+        assert_eq!(other.u, fmu.u);
+        for k in 40..60 {
+            fmu.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+            other.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+            assert_eq!(other.u, fmu.u, "sample {k}");
+        }
+        assert!(other.deserialize_state(&bytes[..bytes.len() - 3]).is_err());
+    }
+
+    #[test]
+    fn parameters_override_the_config_file_unless_at_their_start() {
+        let mut fmu = MagSwarmPid::new(None).unwrap();
+        let mut ctx = Ctx::silent();
+        let dir = std::env::temp_dir().join(format!("magswarm-pid-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cfg.json");
+        let mut cfg = PidConfig::default();
+        cfg.gains.kp = [0.7, 0.6];
+        cfg.gains.ki = [0.1, 0.2];
+        std::fs::write(&path, cfg.to_json()).unwrap();
+        // start value written first: does not erase the file's value
+        fmu.set_real(&mut ctx, vr::PARAM_BASE + 1, 0.3).unwrap();
+        fmu.set_real(&mut ctx, vr::PARAM_BASE + 3, 0.9).unwrap(); // ki_r1 overridden
+        fmu.set_string(&mut ctx, vr::CONFIG_FILE, path.to_str().unwrap())
+            .unwrap();
+        let eff = fmu.effective_config();
+        assert_eq!(eff.gains.kp, [0.7, 0.6]);
+        assert_eq!(eff.gains.ki, [0.9, 0.2]);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

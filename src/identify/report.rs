@@ -1,0 +1,584 @@
+//! The identification report: `DIR/report.md` and its PNG figures, and the short summary
+//! printed on stderr.
+
+use super::data::{self, OpPoint};
+use super::fit::predict_point;
+use super::{params, Collinear, Estimate, Identification};
+use crate::plot::{self, ErrorBar, ErrorSeries, Heatmap, Labels, Panel, Series};
+use anyhow::{Context, Result};
+use magswarm_model::{hz_to_rad_s, steady};
+use std::fmt::Write as _;
+use std::path::Path;
+
+fn g(v: f64) -> String {
+    plot::fmt_g(v)
+}
+
+/// A few lines for the terminal.
+pub fn summary(id: &Identification) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "identify: {} points ({} settled, {} transient rows), {} free steady parameter(s), \
+         cond(J^T J, scaled) {:.3e}, {:.3} s",
+        id.points.len(),
+        id.counts.settled,
+        id.counts.transient,
+        id.steady.free.len(),
+        id.steady.cov.cond_scaled,
+        id.elapsed.as_secs_f64()
+    );
+    for e in id
+        .steady
+        .estimates
+        .iter()
+        .chain(id.dynamics.iter().flat_map(|d| d.estimates.iter()))
+    {
+        let _ = writeln!(
+            s,
+            "  {:<8} {:>11}  95% CI [{}, {}]{}",
+            e.name,
+            g(e.value),
+            g(e.ci.0),
+            g(e.ci.1),
+            if e.at_bound { "  (at bound)" } else { "" }
+        );
+    }
+    for a in &id.steady.auto_fixed {
+        let _ = writeln!(
+            s,
+            "  {} fixed at {} (collinear: cond {:.2e})",
+            a.name,
+            g(a.value),
+            a.cond
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  RMSE r1 {:.3} mm, r2 {:.3} mm; MAE r1 {:.2} %, r2 {:.2} %",
+        id.train.rmse[0], id.train.rmse[1], id.train.mae_pct[0], id.train.mae_pct[1]
+    );
+    if let Some(h) = &id.heldout {
+        let _ = writeln!(
+            s,
+            "  withheld ({} points): RMSE r1 {:.3} mm, r2 {:.3} mm",
+            h.n, h.rmse[0], h.rmse[1]
+        );
+    }
+    let _ = writeln!(s, "  dynamics: {}", id.dynamics_note);
+    s
+}
+
+fn est_row(e: &Estimate, status: &str) -> String {
+    let boot = match e.boot {
+        Some(b) => format!(
+            "[{}, {}] | {:.2}",
+            g(b.lo),
+            g(b.hi),
+            if e.se > 0.0 { b.sd / e.se } else { f64::NAN }
+        ),
+        None => "- | -".into(),
+    };
+    format!(
+        "| {} | {} | **{}** | {} | [{}, {}] | {} | {}{} |\n",
+        e.name,
+        g(e.prior),
+        g(e.value),
+        g(e.se),
+        g(e.ci.0),
+        g(e.ci.1),
+        boot,
+        status,
+        if e.at_bound { ", at bound" } else { "" }
+    )
+}
+
+fn find<'a>(id: &'a Identification, name: &str) -> Option<&'a Estimate> {
+    id.steady.estimates.iter().find(|e| e.name == name)
+}
+
+/// "value [lo, hi]" for a free parameter, "value (fixed)" otherwise.
+fn cell(id: &Identification, name: &str) -> String {
+    match find(id, name) {
+        Some(e) => format!("{} [{}, {}]", g(e.value), g(e.ci.0), g(e.ci.1)),
+        None => format!("{} (fixed)", g(params::get(&id.model, name))),
+    }
+}
+
+/// Write `dir/report.md` and the PNGs.
+pub fn write(id: &Identification, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let figs = plots(id, dir)?;
+    let mut md = String::new();
+    let w = &mut md;
+    let _ = writeln!(w, "# Identification report\n");
+    let _ = writeln!(w, "Logs: {}  ", id.sources.join(", "));
+    let _ = writeln!(
+        w,
+        "Prior model: `{}`. Wall time {:.3} s.\n",
+        id.prior.name,
+        id.elapsed.as_secs_f64()
+    );
+    let c = &id.counts;
+    let _ = writeln!(w, "## Data\n");
+    let _ = writeln!(
+        w,
+        "{} rows in {} session(s), {} visit(s) (runs of constant commanded inputs); {} settled, \
+         {} transient, {} invalid or without radii. {} operating point(s) ({} fitted, {} \
+         withheld).\n",
+        c.rows,
+        c.sessions,
+        c.visits,
+        c.settled,
+        c.transient,
+        c.invalid,
+        c.points,
+        id.points.len(),
+        id.withheld.len()
+    );
+    let _ = writeln!(
+        w,
+        "Settle rule: {}. A row's inputs are the ones in force since the previous row (docs/log-format.md), \
+         so a change is dated at the last row with the old inputs; the first visit of a session counts from \
+         the session's first row.\n",
+        id.settle.describe()
+    );
+    let sd1: Vec<f64> = id.points.iter().map(|p| p.sd[0]).collect();
+    let sd2: Vec<f64> = id.points.iter().map(|p| p.sd[1]).collect();
+    let mad1: Vec<f64> = id.points.iter().map(|p| p.mad[0]).collect();
+    let mad2: Vec<f64> = id.points.iter().map(|p| p.mad[1]).collect();
+    let _ = writeln!(
+        w,
+        "Repeat variability (settled rows per point): median SD r1 {} mm, r2 {} mm; median MAD \
+         r1 {} mm, r2 {} mm; pooled SD r1 {} mm, r2 {} mm.\n",
+        g(data::median_mad(&sd1).0),
+        g(data::median_mad(&sd2).0),
+        g(data::median_mad(&mad1).0),
+        g(data::median_mad(&mad2).0),
+        g(id.weighting.pooled_sd[0]),
+        g(id.weighting.pooled_sd[1])
+    );
+    let _ = writeln!(
+        w,
+        "Weights: {}.\n",
+        if id.weighting.from_repeats {
+            format!(
+                "1/SE^2 of each point mean, the repeat variance shrunk toward the pooled \
+                 variance with {} prior degrees of freedom",
+                data::SHRINK_DOF
+            )
+        } else {
+            "no point has repeats: unit weights (covariance scaled by the residual variance)".into()
+        }
+    );
+
+    let _ = writeln!(w, "## Table I (identified, 95 % CI)\n");
+    let _ = writeln!(w, "| Axis-specific parameters | r_1 | r_2 |\n|---|---|---|");
+    for (lab, a, b) in [
+        ("C_i [mm]", "C_1", "C_2"),
+        ("a_K,i [-]", "a_K1", "a_K2"),
+        ("alpha_i [-]", "alpha_1", "alpha_2"),
+        ("gamma_i [-]", "gamma_1", "gamma_2"),
+    ] {
+        let _ = writeln!(w, "| {lab} | {} | {} |", cell(id, a), cell(id, b));
+    }
+    let _ = writeln!(w, "\n| Global parameters | value |\n|---|---|");
+    for n in ["s_0", "a_G", "rho", "N", "q", "a_P", "mu_P", "c_P", "q_P"] {
+        let _ = writeln!(w, "| {n} [-] | {} |", cell(id, n));
+    }
+    let _ = writeln!(w, "| f_ref [Hz] | {} (fixed) |", g(id.model.steady.f_ref));
+    let _ = writeln!(w, "\n| Validation errors | r_1 | r_2 |\n|---|---|---|");
+    let t = &id.train;
+    let _ = writeln!(w, "| RMSE [mm] | {:.3} | {:.3} |", t.rmse[0], t.rmse[1]);
+    let _ = writeln!(w, "| MAE [%] | {:.2} | {:.2} |", t.mae_pct[0], t.mae_pct[1]);
+    if let Some(h) = &id.heldout {
+        let _ = writeln!(
+            w,
+            "| withheld RMSE [mm] ({} points) | {:.3} | {:.3} |",
+            h.n, h.rmse[0], h.rmse[1]
+        );
+        let _ = writeln!(
+            w,
+            "| withheld MAE [%] | {:.2} | {:.2} |",
+            h.mae_pct[0], h.mae_pct[1]
+        );
+    }
+    let _ = writeln!(w, "\n| Median stiffness | S_x | S_y |\n|---|---|---|");
+    let _ = writeln!(
+        w,
+        "| value [-] | {} | {} |\n",
+        g(id.median_s[0]),
+        g(id.median_s[1])
+    );
+    let _ = writeln!(
+        w,
+        "RMSE and MAE are over the fitted operating-point means (as the seed's Table I); MAE is \
+         relative to the measured mean. The CIs are t({}) x SE from the Jacobian covariance \
+         scaled by the reduced chi^2 ({}).\n",
+        id.steady.cov.dof,
+        g(id.steady.cov.s2)
+    );
+
+    let _ = writeln!(w, "## All estimates\n");
+    let _ = writeln!(
+        w,
+        "| parameter | prior | fitted | SE | 95 % CI (Jacobian) | 95 % CI (bootstrap) | boot SD / SE | status |\n|---|---|---|---|---|---|---|---|"
+    );
+    for e in &id.steady.estimates {
+        w.push_str(&est_row(e, "free (steady)"));
+    }
+    if let Some(d) = &id.dynamics {
+        for e in &d.estimates {
+            w.push_str(&est_row(e, "free (dynamics)"));
+        }
+    }
+    for a in &id.steady.auto_fixed {
+        let _ = writeln!(
+            w,
+            "| {} | {} | {} | - | - | - | - | fixed by the collinearity policy |",
+            a.name,
+            g(a.value),
+            g(a.value)
+        );
+    }
+    if id.steady.boot_ok > 0 {
+        let _ = writeln!(
+            w,
+            "\nBootstrap: {} replicate(s) over operating points (resampled with replacement within \
+             each z_m level, each refitted from the solution). A ratio boot SD / SE near 1 confirms the Jacobian CI; \
+             well above 1 means the linearisation understates the uncertainty.\n",
+            id.steady.boot_ok
+        );
+    }
+
+    let _ = writeln!(w, "## Collinearity\n");
+    let cov = &id.steady.cov;
+    let names: Vec<&str> = id.steady.free.iter().map(|f| f.name()).collect();
+    let _ = writeln!(
+        w,
+        "Condition number of J^T J: {:.3e} with columns scaled to unit diagonal (the \
+         identifiability measure), {:.3e} raw.\n",
+        cov.cond_scaled, cov.cond_raw
+    );
+    match id.steady.policy {
+        Collinear::Fix { cond_max } => {
+            if let Some((n0, c0)) = &id.steady.cov_initial {
+                let _ = writeln!(
+                    w,
+                    "Policy **fix**: with all of {} free the scaled condition number was {:.3e} \
+                     (> {:.1e}); the stiffness terms are power laws of the same distance and the \
+                     data cannot tell them apart. Fixed at the prior value, one at a time (the \
+                     parameter with the largest share of the weakest direction):\n",
+                    n0.join(", "),
+                    c0.cond_scaled,
+                    cond_max
+                );
+                for a in &id.steady.auto_fixed {
+                    let _ = writeln!(
+                        w,
+                        "- {} = {} (cond {:.3e} before)",
+                        a.name,
+                        g(a.value),
+                        a.cond
+                    );
+                }
+                let _ = writeln!(w);
+            } else {
+                let _ = writeln!(
+                    w,
+                    "Policy **fix** (threshold {cond_max:.1e}): not triggered, no parameter was \
+                     fixed.\n"
+                );
+            }
+        }
+        Collinear::Ridge { lambda } => {
+            let _ = writeln!(
+                w,
+                "Policy **ridge**: the free stiffness terms are regularised toward the prior \
+                 with lambda = {lambda} (scale max(|prior|, 0.1)); the covariance includes the \
+                 ridge.\n"
+            );
+        }
+        Collinear::Report => {
+            let _ = writeln!(w, "Policy **report**: nothing fixed or regularised.\n");
+        }
+    }
+    let mut strong = Vec::new();
+    let _ = write!(w, "| corr |");
+    for n in &names {
+        let _ = write!(w, " {n} |");
+    }
+    let _ = write!(w, "\n|---|");
+    for _ in &names {
+        let _ = write!(w, "---|");
+    }
+    let _ = writeln!(w);
+    for (i, a) in names.iter().enumerate() {
+        let _ = write!(w, "| {a} |");
+        for (j, b) in names.iter().enumerate() {
+            let r = cov.corr[(i, j)];
+            let _ = write!(w, " {r:.2} |");
+            if j > i && r.abs() > 0.95 {
+                strong.push(format!("{a}/{b} ({r:.3})"));
+            }
+        }
+        let _ = writeln!(w);
+    }
+    let _ = writeln!(
+        w,
+        "\nStrongly correlated pairs (|r| > 0.95): {}.\n",
+        if strong.is_empty() {
+            "none".into()
+        } else {
+            strong.join(", ")
+        }
+    );
+
+    let _ = writeln!(w, "## Multi-start\n\n| start | cost (chi^2) | converged | termination | evaluations |\n|---|---|---|---|---|");
+    for (k, r) in id.steady.runs.iter().enumerate() {
+        let _ = writeln!(
+            w,
+            "| {} | {} | {} | {} | {} |",
+            k + 1,
+            g(r.cost),
+            r.converged,
+            r.termination,
+            r.evals
+        );
+    }
+    let best = id.steady.runs.first().map(|r| r.cost).unwrap_or(f64::NAN);
+    let same = id
+        .steady
+        .runs
+        .iter()
+        .filter(|r| (r.cost - best).abs() <= 1e-6 * best.max(1e-12) + 1e-9)
+        .count();
+    let _ = writeln!(
+        w,
+        "\n{same} of {} start(s) reached the best cost (sorted best first).\n",
+        id.steady.runs.len()
+    );
+
+    let _ = writeln!(w, "## Dynamics (ODE (4))\n\n{}.\n", id.dynamics_note);
+    if let Some(d) = &id.dynamics {
+        let _ = writeln!(
+            w,
+            "Transient residual RMS: r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm (prior -> \
+             fitted time scales); condition number (scaled) {:.3e}; LM: {}.\n",
+            d.rms_before[0],
+            d.rms_after[0],
+            d.rms_before[1],
+            d.rms_after[1],
+            d.cov.cond_scaled,
+            d.run.termination
+        );
+    }
+
+    let _ = writeln!(w, "## Figures\n");
+    for (f, cap) in &figs {
+        let _ = writeln!(w, "![{cap}]({f})\n\n*{cap}*\n");
+    }
+    std::fs::write(dir.join("report.md"), md)
+        .with_context(|| format!("cannot write {}", dir.join("report.md").display()))?;
+    Ok(())
+}
+
+fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
+    let m = &id.model;
+    let mut out = Vec::new();
+    // Predicted vs measured.
+    let pv = |pts: &[OpPoint], a: usize| -> Vec<(f64, f64)> {
+        pts.iter()
+            .map(|p| (p.mean[a], predict_point(m, p.z_mm, p.f_hz)[a]))
+            .collect()
+    };
+    let mut series = vec![
+        Series::points("r1 (fitted points)", pv(&id.points, 0)),
+        Series::points("r2 (fitted points)", pv(&id.points, 1)),
+    ];
+    if !id.withheld.is_empty() {
+        series.push(
+            Series::new("r1 (withheld)", pv(&id.withheld, 0), plot::Style::Points)
+                .with_color(plot::PALETTE[2]),
+        );
+        series.push(
+            Series::new("r2 (withheld)", pv(&id.withheld, 1), plot::Style::Points)
+                .with_color(plot::PALETTE[3]),
+        );
+    }
+    plot::pred_vs_meas(
+        &dir.join("pred_vs_meas.png"),
+        &Labels {
+            title: "Predicted vs measured radii (point means)",
+            x: "measured [mm]",
+            y: "predicted [mm]",
+        },
+        &series,
+    )?;
+    out.push((
+        "pred_vs_meas.png".into(),
+        "Predicted against measured point means".into(),
+    ));
+
+    // Residual maps over (z_m, f).
+    let all: Vec<&OpPoint> = id.points.iter().chain(&id.withheld).collect();
+    let mut zs: Vec<f64> = all.iter().map(|p| p.z_mm).collect();
+    let mut fs: Vec<f64> = all.iter().map(|p| p.f_hz).collect();
+    for v in [&mut zs, &mut fs] {
+        v.sort_by(|a, b| a.total_cmp(b));
+        v.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
+    }
+    if zs.len() >= 2 && fs.len() >= 2 && zs.len() * fs.len() <= 40_000 {
+        let marks: Vec<(f64, f64)> = id.withheld.iter().map(|p| (p.z_mm, p.f_hz)).collect();
+        for a in 0..2 {
+            let mut vals = vec![vec![f64::NAN; zs.len()]; fs.len()];
+            let mut vmax: f64 = 0.0;
+            for p in &all {
+                let i = zs
+                    .iter()
+                    .position(|z| (z - p.z_mm).abs() < 1e-6)
+                    .unwrap_or(0);
+                let j = fs
+                    .iter()
+                    .position(|f| (f - p.f_hz).abs() < 1e-6)
+                    .unwrap_or(0);
+                let r = predict_point(m, p.z_mm, p.f_hz)[a] - p.mean[a];
+                vals[j][i] = r;
+                vmax = vmax.max(r.abs());
+            }
+            let name = format!("residual_r{}.png", a + 1);
+            let title = format!("Residual r{} (model - measured mean) over (z_m, f)", a + 1);
+            plot::heatmap(
+                &dir.join(&name),
+                &Labels {
+                    title: &title,
+                    x: "z_m [mm]",
+                    y: "f [Hz]",
+                },
+                &Heatmap {
+                    xs: &zs,
+                    ys: &fs,
+                    values: &vals,
+                    colorbar_label: "residual [mm]",
+                    marks: &marks,
+                    marks_label: if marks.is_empty() { "" } else { "withheld" },
+                    range: Some((-vmax.max(1e-9), vmax.max(1e-9))),
+                },
+            )?;
+            out.push((name, format!("Residual map of r{} over (z_m, f)", a + 1)));
+        }
+    }
+
+    // Collapse plot (Fig. 5): y_i = r_i S_i^alpha_i / C_i against f, median +- MAD per bin.
+    let s = &m.steady;
+    let edges: Vec<f64> = if fs.len() <= 15 {
+        fs.clone()
+    } else {
+        let (lo, hi) = (fs[0], fs[fs.len() - 1]);
+        (0..10)
+            .map(|k| lo + (hi - lo) * (k as f64 + 0.5) / 10.0)
+            .collect()
+    };
+    let mut bins: Vec<[Vec<f64>; 2]> = vec![[Vec::new(), Vec::new()]; edges.len()];
+    for p in &id.points {
+        let sp = steady::evaluate(m, p.z_mm * 1e-3, hz_to_rad_s(p.f_hz));
+        let b = edges
+            .iter()
+            .enumerate()
+            .min_by(|x, y| (x.1 - p.f_hz).abs().total_cmp(&(y.1 - p.f_hz).abs()))
+            .map(|x| x.0)
+            .unwrap_or(0);
+        for smp in &p.samples {
+            bins[b][0].push(smp[0] * sp.s_x.powf(s.alpha_1) / s.C_1);
+            bins[b][1].push(smp[1] * sp.s_y.powf(s.alpha_2) / s.C_2);
+        }
+    }
+    let width = if edges.len() > 1 {
+        (edges[edges.len() - 1] - edges[0]) / (edges.len() - 1) as f64
+    } else {
+        1.0
+    };
+    let es: Vec<ErrorSeries> = (0..2)
+        .map(|a| ErrorSeries {
+            name: format!("r{} (median +- MAD)", a + 1),
+            points: edges
+                .iter()
+                .zip(&bins)
+                .filter(|(_, b)| !b[a].is_empty())
+                .map(|(&f, b)| {
+                    let (med, mad) = data::median_mad(&b[a]);
+                    ErrorBar {
+                        x: f + (a as f64 - 0.5) * 0.12 * width,
+                        y: med,
+                        lo: med - mad,
+                        hi: med + mad,
+                    }
+                })
+                .collect(),
+            color: None,
+        })
+        .collect();
+    let (f0, f1) = (
+        fs[0].min(edges[0]),
+        fs[fs.len() - 1].max(edges[edges.len() - 1]),
+    );
+    let phi: Vec<(f64, f64)> = (0..=200)
+        .map(|k| {
+            let f = f0 + (f1 - f0) * k as f64 / 200.0;
+            (f, steady::phi(m, hz_to_rad_s(f)))
+        })
+        .collect();
+    plot::scatter_with_errorbars(
+        &dir.join("collapse.png"),
+        &Labels {
+            title: "Collapse (Fig. 5): y_i = r_i S_i^alpha_i / C_i against Phi(f)",
+            x: "f [Hz]",
+            y: "y_i [-]",
+        },
+        &es,
+        &[Series::line("Phi(f) fitted", phi).with_color(plot::RGBColor(0, 0, 0))],
+    )?;
+    out.push((
+        "collapse.png".into(),
+        "Collapsed radii per frequency bin (median +- MAD) against the fitted Phi".into(),
+    ));
+
+    // Transients: the session with the most transient rows, measured vs replayed.
+    if id.dynamics.is_some() {
+        if let Some(fig) = transient_plot(id, dir)? {
+            out.push(fig);
+        }
+    }
+    Ok(out)
+}
+
+fn transient_plot(id: &Identification, dir: &Path) -> Result<Option<(String, String)>> {
+    let Some(tr) = &id.trace else {
+        return Ok(None);
+    };
+    let panels: Vec<Panel> = (0..2)
+        .map(|a| Panel {
+            y_label: format!("r{} [mm]", a + 1),
+            series: vec![
+                Series::points(
+                    "measured",
+                    tr.iter().filter_map(|x| x.2.map(|r| (x.0, r[a]))).collect(),
+                ),
+                Series::line(
+                    "replayed (fitted model)",
+                    tr.iter().map(|x| (x.0, x.1[a])).collect(),
+                ),
+            ],
+        })
+        .collect();
+    plot::time_panels(
+        &dir.join("transients.png"),
+        "Transients: measured and replayed",
+        "t [s]",
+        &panels,
+    )?;
+    Ok(Some((
+        "transients.png".into(),
+        "Measured radii and the fitted model's replay around the largest input change".into(),
+    )))
+}

@@ -1,0 +1,191 @@
+//! `magswarm predict`: replay a log's commanded inputs through a model, dynamics included.
+//!
+//! Semantics (the same as the virtual lab's and the FMU's zero-order hold):
+//!
+//! - Each session (one `session` value; the whole file when there is no such column) starts
+//!   with the plant at rest on the steady map of its first row's inputs (formation complete).
+//! - The inputs of a row are the ones in force while its measurement formed, held over the
+//!   interval since the previous row of its session (docs/log-format.md): between two rows the
+//!   plant integrates ODE (4) under the *later* row's inputs, and the prediction of a row is
+//!   the state at its time. A log that records only measurements (change the inputs, wait,
+//!   measure) is thus replayed with its waiting time, and magswarm's own streamed logs
+//!   (co-simulation, lab, bridge) are written in exactly this convention. `identify` dates
+//!   input changes the same way.
+//! - Rows of different sessions may interleave in the file; each session has its own plant.
+//! - Every row gets a prediction, `valid` = 0 rows included.
+//!
+//! Output: every input column is kept (same order, unknown columns included); `r1_mm`,
+//! `r2_mm` hold the prediction (added if absent). When the input had radii, the measured
+//! values move to `r1_meas_mm`, `r2_meas_mm`; `r1_ss_mm`, `r2_ss_mm` carry the steady map at
+//! the row's inputs (what the swarm would settle to).
+
+use crate::log::{Column, Log, LogRow, LogWriter};
+use anyhow::{Context, Result};
+use magswarm_model::{hz_to_rad_s, Model, Plant};
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+/// Arguments of `magswarm predict`.
+#[derive(Debug, clap::Args)]
+pub struct PredictArgs {
+    /// Model JSON (default: the built-in paper model).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Input log (CONTRACTS.md format; needs t_s, z_m_mm, f_hz).
+    #[arg(long)]
+    pub log: PathBuf,
+    /// Output log with predicted r1_mm, r2_mm.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// One input sample of a replay.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InputRow {
+    /// Time within the session [s] (non-decreasing).
+    pub t: f64,
+    /// Commanded z_m [mm].
+    pub z_mm: f64,
+    /// Commanded frequency [Hz].
+    pub f_hz: f64,
+}
+
+/// Relative/absolute tolerance of the replay integrator (radii in mm).
+pub const REPLAY_RTOL: f64 = 1e-7;
+
+/// Replay one session: the state [mm] at each row (see the module docs for the semantics).
+/// `rtol` sets the integrator's relative and absolute (mm) tolerance.
+pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2]>> {
+    let Some(first) = rows.first() else {
+        return Ok(Vec::new());
+    };
+    let mut plant = Plant::new(model.clone(), first.z_mm * 1e-3, hz_to_rad_s(first.f_hz));
+    {
+        let tol = plant.tolerances_mut();
+        tol.rtol = rtol;
+        tol.atol = rtol;
+    }
+    let mut out = Vec::with_capacity(rows.len());
+    let mut t_prev = first.t;
+    for r in rows {
+        plant.set_inputs(r.z_mm * 1e-3, hz_to_rad_s(r.f_hz));
+        let h = r.t - t_prev;
+        if h > 0.0 {
+            step_robust(&mut plant, h).with_context(|| {
+                format!(
+                    "integrating ODE (4) from t = {t_prev} s to {} s at z_m {} mm, f {} Hz",
+                    r.t, r.z_mm, r.f_hz
+                )
+            })?;
+        }
+        t_prev = r.t;
+        out.push(plant.state());
+    }
+    Ok(out)
+}
+
+/// Step, retrying in smaller pieces once if the integrator gives up.
+fn step_robust(plant: &mut Plant, h: f64) -> Result<()> {
+    if plant.step(h).is_ok() {
+        return Ok(());
+    }
+    let n = 64;
+    for _ in 0..n {
+        plant
+            .step(h / n as f64)
+            .map_err(|e| anyhow::anyhow!("integrator failed: {e:?}"))?;
+    }
+    Ok(())
+}
+
+/// Predict every row of a log: (prediction, steady map) per row, in file order.
+pub fn predict_log(model: &Model, log: &Log) -> Result<Vec<([f64; 2], [f64; 2])>> {
+    let mut by: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (i, r) in log.rows.iter().enumerate() {
+        by.entry(r.session.as_str()).or_default().push(i);
+    }
+    let mut out = vec![([f64::NAN; 2], [f64::NAN; 2]); log.rows.len()];
+    for (name, idx) in by {
+        let rows: Vec<InputRow> = idx
+            .iter()
+            .map(|&i| InputRow {
+                t: log.rows[i].t_s,
+                z_mm: log.rows[i].z_m_mm,
+                f_hz: log.rows[i].f_hz,
+            })
+            .collect();
+        let pred = replay(model, &rows, REPLAY_RTOL).with_context(|| {
+            if name.is_empty() {
+                log.source.clone()
+            } else {
+                format!("{} session {name:?}", log.source)
+            }
+        })?;
+        for (k, &i) in idx.iter().enumerate() {
+            let sp = magswarm_model::steady::evaluate(
+                model,
+                rows[k].z_mm * 1e-3,
+                hz_to_rad_s(rows[k].f_hz),
+            );
+            out[i] = (pred[k], [sp.r1, sp.r2]);
+        }
+    }
+    Ok(out)
+}
+
+/// Run the command.
+pub fn run(a: &PredictArgs) -> Result<()> {
+    let model = match &a.model {
+        Some(p) => Model::load(p)?,
+        None => Model::paper(),
+    };
+    let log = Log::read(&a.log)?;
+    if log.rows.is_empty() {
+        anyhow::bail!("{}: the log has no rows to replay", a.log.display());
+    }
+    let pred = predict_log(&model, &log)?;
+    let had_radii = log.has_radii();
+    let mut layout = log.layout.clone();
+    let (r1m, r2m) = if had_radii {
+        (
+            Some(layout.add_extra("r1_meas_mm")),
+            Some(layout.add_extra("r2_meas_mm")),
+        )
+    } else {
+        layout.ensure(Column::R1);
+        layout.ensure(Column::R2);
+        (None, None)
+    };
+    let r1s = layout.add_extra("r1_ss_mm");
+    let r2s = layout.add_extra("r2_ss_mm");
+    let mut w = LogWriter::create(&a.out, layout.clone())
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    for (row, (p, ss)) in log.rows.iter().zip(&pred) {
+        let mut o: LogRow = row.clone();
+        o.extra.resize(layout.extra_columns.len(), String::new());
+        let cell = |v: Option<f64>| v.map(|x| format!("{x}")).unwrap_or_default();
+        if let (Some(i1), Some(i2)) = (r1m, r2m) {
+            o.extra[i1] = cell(row.r1_mm);
+            o.extra[i2] = cell(row.r2_mm);
+        }
+        o.extra[r1s] = cell(Some(ss[0]));
+        o.extra[r2s] = cell(Some(ss[1]));
+        o.r1_mm = Some(p[0]);
+        o.r2_mm = Some(p[1]);
+        w.write_row(&o)
+            .with_context(|| format!("cannot write {}", a.out.display()))?;
+    }
+    w.finish()
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    eprintln!(
+        "predict: {} rows of {} replayed through {} -> {}",
+        log.rows.len(),
+        a.log.display(),
+        a.model
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| "the paper model".into()),
+        a.out.display()
+    );
+    Ok(())
+}
