@@ -415,34 +415,3 @@ fn invalid_rows_are_kept_but_not_fitted() {
     let back = Log::from_str_named(&text, "x").unwrap();
     assert_eq!(back.rows.iter().filter(|r| !r.valid).count(), 10);
 }
-
-/// Time to identify a 500-row seed-like log with the default configuration (8 starts, 200
-/// bootstrap replicates). Run: `cargo test --release --test identify -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn timing_500_rows() {
-    let log = common::log(&Spec::seed_like(common::perturbed_truth(), 77));
-    assert_eq!(log.rows.len(), 500);
-    let cfg = Config::default();
-    let _ = identify::identify(std::slice::from_ref(&log), &Model::paper(), &cfg).unwrap();
-    let mut times = Vec::new();
-    for _ in 0..5 {
-        let t0 = std::time::Instant::now();
-        let id = identify::identify(std::slice::from_ref(&log), &Model::paper(), &cfg).unwrap();
-        times.push(t0.elapsed().as_secs_f64());
-        assert!(id.train.rmse[0] < 0.2);
-    }
-    times.sort_by(|a, b| a.total_cmp(b));
-    println!(
-        "identify 500 rows (8 starts, 200 bootstrap): median {:.3} s, min {:.3} s, max {:.3} s",
-        times[2], times[0], times[4]
-    );
-    let cfg0 = Config {
-        bootstrap: 0,
-        ..Config::default()
-    };
-    let t0 = std::time::Instant::now();
-    let _ = identify::identify(&[log], &Model::paper(), &cfg0).unwrap();
-    println!("without bootstrap: {:.3} s", t0.elapsed().as_secs_f64());
-    assert!(times[2] < 0.5, "median {} s", times[2]);
-}
