@@ -54,5 +54,7 @@ pub mod sim;
 
 pub use inverse::{inverse, inverse_with, InverseOptions, InverseResult};
 pub use linearize::{linearize, Linearization};
-pub use pid::{ConfigError, Controller, Gains, Limits, PidConfig, StepInfo, CONFIG_SCHEMA};
+pub use pid::{
+    ConfigError, Controller, ControllerSnapshot, Gains, Limits, PidConfig, StepInfo, CONFIG_SCHEMA,
+};
 pub use sim::{closed_loop, seed_scenario, summarize, Sample, Segment, SegmentSummary};

@@ -37,7 +37,7 @@
 //! (a plant that differs from the model, a disturbance) is held by the anti-windup
 //! (conditional integration plus back-calculation against saturation and rate limits).
 
-use magswarm_model::{steady, Envelope, Model, Plant};
+use magswarm_model::{steady, Envelope, Model, Plant, PlantSnapshot};
 use serde::{Deserialize, Serialize};
 
 use crate::inverse::{inverse_with, InverseOptions, InverseResult, Scale};
@@ -230,7 +230,7 @@ impl PidConfig {
 }
 
 /// What the last sample did (for logs and tests).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct StepInfo {
     /// Reference the PID tracked at this sample (r1, r2) [mm].
     pub reference_mm: [f64; 2],
@@ -273,6 +273,28 @@ struct State {
     status: Option<InverseResult>,
     last: StepInfo,
     /// Gains in force before a [`Controller::set_gains`] not yet absorbed.
+    gains_before: Option<Gains>,
+}
+
+/// The controller's mutable state as plain data: what an FMU state or a checkpoint of a
+/// long experiment stores. Restoring it into a controller built with the same model and
+/// configuration continues bit-identically (see [`Controller::snapshot`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ControllerSnapshot {
+    initialized: bool,
+    u: [f64; 2],
+    u_ff: [f64; 2],
+    integ: [f64; 2],
+    d_filt: [f64; 2],
+    r_pre: [f64; 2],
+    model_plant: Option<PlantSnapshot>,
+    /// None before the first setpoint (the live state marks that with NaN, which JSON lacks).
+    setpoint: Option<[f64; 2]>,
+    status: Option<InverseResult>,
+    last: StepInfo,
+    /// Gains in force (they may differ from the configuration after `set_gains`).
+    gains: Gains,
     gains_before: Option<Gains>,
 }
 
@@ -350,6 +372,48 @@ impl Controller {
             Some(p)
         } else {
             None
+        };
+    }
+
+    /// The mutable state as data (sizes do not grow with the run's length).
+    pub fn snapshot(&self) -> ControllerSnapshot {
+        let st = &self.st;
+        ControllerSnapshot {
+            initialized: st.initialized,
+            u: st.u,
+            u_ff: st.u_ff,
+            integ: st.integ,
+            d_filt: st.d_filt,
+            r_pre: st.r_pre,
+            model_plant: st.model_plant.as_ref().map(Plant::snapshot),
+            setpoint: (!st.setpoint[0].is_nan()).then_some(st.setpoint),
+            status: st.status,
+            last: st.last,
+            gains: self.cfg.gains,
+            gains_before: st.gains_before,
+        }
+    }
+
+    /// Restore a state taken with [`Controller::snapshot`] (from a controller with the same
+    /// model and configuration).
+    pub fn restore(&mut self, s: &ControllerSnapshot) {
+        let model = &self.model;
+        self.cfg.gains = s.gains;
+        self.st = State {
+            initialized: s.initialized,
+            u: s.u,
+            u_ff: s.u_ff,
+            integ: s.integ,
+            d_filt: s.d_filt,
+            r_pre: s.r_pre,
+            model_plant: s
+                .model_plant
+                .as_ref()
+                .map(|p| Plant::from_snapshot(model.clone(), p)),
+            setpoint: s.setpoint.unwrap_or([f64::NAN; 2]),
+            status: s.status,
+            last: s.last,
+            gains_before: s.gains_before,
         };
     }
 

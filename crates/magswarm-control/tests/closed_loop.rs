@@ -529,3 +529,41 @@ fn measurement_noise_is_tolerated() {
     assert!((mean[0] - target[0]).abs() < 0.05 && (mean[1] - target[1]).abs() < 0.05);
     assert!(zsd < 0.5, "z_m jitter {zsd} mm");
 }
+
+/// A controller restored from a JSON snapshot taken mid-run continues exactly as the original,
+/// and the snapshot's size does not grow with the run.
+#[test]
+fn snapshot_restores_the_controller_exactly() {
+    let cfg = PidConfig::default();
+    let mut plant = Plant::new(Model::paper(), sim::SEED_START.0, sim::SEED_START.1);
+    let mut ctrl = Controller::new(Model::paper(), cfg.clone()).unwrap();
+    let y0 = plant.state();
+    ctrl.reset(sim::SEED_START.0, sim::SEED_START.1, y0);
+    let drive = |ctrl: &mut Controller, plant: &mut Plant, n: usize, sp: [f64; 2]| {
+        let mut out = Vec::new();
+        for _ in 0..n {
+            let (z, w) = ctrl.step(plant.state(), sp);
+            plant.set_inputs(z, w);
+            plant.step(cfg.sample_time_s).unwrap();
+            out.push((z, w));
+        }
+        out
+    };
+    drive(&mut ctrl, &mut plant, 100, [8.0, 11.0]);
+    let early = serde_json::to_string(&ctrl.snapshot()).unwrap().len();
+    drive(&mut ctrl, &mut plant, 300, [8.2, 11.5]);
+    let json = serde_json::to_string(&ctrl.snapshot()).unwrap();
+    let plant_copy = plant.clone();
+    let a = drive(&mut ctrl, &mut plant, 400, [8.6, 12.0]);
+
+    let mut restored = Controller::new(Model::paper(), cfg.clone()).unwrap();
+    restored.restore(&serde_json::from_str(&json).unwrap());
+    let mut plant_b = plant_copy;
+    let b = drive(&mut restored, &mut plant_b, 400, [8.6, 12.0]);
+    assert_eq!(a, b, "restored controller diverged");
+    assert!(
+        json.len() < early + 200,
+        "snapshot grew: {early} -> {}",
+        json.len()
+    );
+}

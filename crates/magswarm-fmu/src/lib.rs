@@ -837,17 +837,9 @@ impl FmuModel for MagSwarm {
             None => out.put_bool(false),
             Some(p) => {
                 out.put_bool(true);
-                let (z, w) = p.inputs();
-                out.put_f64(z);
-                out.put_f64(w);
-                let r = p.state();
-                out.put_f64(r[0]);
-                out.put_f64(r[1]);
-                out.put_f64(p.time());
-                let st = p.stepper();
-                out.put_f64(st.h_next);
-                out.put_u64(st.steps);
-                out.put_u64(st.rejected);
+                let snap = serde_json::to_string(&p.snapshot())
+                    .map_err(|e| Fmi2Err::error(format!("serialize plant: {e}")))?;
+                out.put_str(&snap);
             }
         }
         Ok(())
@@ -867,24 +859,9 @@ impl FmuModel for MagSwarm {
         let rtol = rd.f64()?;
         let outside = rd.bool()?;
         let plant = if rd.bool()? {
-            let (pz, pw) = (rd.f64()?, rd.f64()?);
-            let r = [rd.f64()?, rd.f64()?];
-            let t = rd.f64()?;
-            let h_next = rd.f64()?;
-            let steps = rd.u64()?;
-            let rejected = rd.u64()?;
-            let mut p = Plant::new(model.clone(), pz, pw);
-            if has_rtol {
-                p.tolerances_mut().rtol = rtol;
-            }
-            p.set_state(r);
-            p.set_time(t);
-            p.set_stepper(magswarm_model::integrate::Stepper {
-                h_next,
-                steps,
-                rejected,
-            });
-            Some(p)
+            let snap: magswarm_model::PlantSnapshot = serde_json::from_str(rd.str()?)
+                .map_err(|e| Fmi2Err::error(format!("deserialize: plant state: {e}")))?;
+            Some(Plant::from_snapshot(model.clone(), &snap))
         } else {
             None
         };

@@ -2,7 +2,7 @@
 //! computation of the input-dependent terms of (4), and one communication step of the plant
 //! (error-controlled Dormand-Prince) of 10 ms and 1 ms.
 //!
-//! Run: `cargo bench -p magswarm-model -- --warm-up-time 1 --measurement-time 2`
+//! Run: `cargo bench -p magswarm-model --bench plant -- --warm-up-time 1 --measurement-time 2`
 
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion};
 use magswarm_model::dynamics::InputTerms;

@@ -65,15 +65,15 @@
 //!
 //! # FMU state
 //!
-//! `magswarm-control` keeps its state private, so the serialized FMU state is the controller's
-//! history (configuration, model, and every sample's measurement and setpoint, every gain change)
-//! and deserialisation replays it through a fresh controller: the controller is deterministic, so
-//! the replayed state is bit-identical. In-memory states (`fmi2GetFMUstate`) are plain clones.
+//! The serialized FMU state is the controller's configuration, model and the controller's
+//! state as data (`Controller::snapshot`: fixed size,
+//! whatever the run's length); deserialisation rebuilds the controller and restores that state,
+//! bit-identically. In-memory states (`fmi2GetFMUstate`) are plain clones.
 
 use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 
-use magswarm_control::{inverse_with, Controller, Gains, InverseOptions, PidConfig};
+use magswarm_control::{inverse_with, Controller, InverseOptions, PidConfig};
 use magswarm_fmi2::bytes::{ByteReader, PutBytes};
 use magswarm_fmi2::units;
 use magswarm_fmi2::{
@@ -416,15 +416,6 @@ pub fn model_description(baked: &PidConfig, generated_at: Option<String>) -> Str
     })
 }
 
-/// One entry of the controller's history (replayed to deserialize an FMU state).
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Event {
-    /// A sample: measurement (r1, r2) and setpoint (r1*, r2*) [mm].
-    Sample([f64; 2], [f64; 2]),
-    /// A gain change (bumpless).
-    Gains(Gains),
-}
-
 /// One FMU instance.
 #[derive(Debug, Clone)]
 pub struct MagSwarmPid {
@@ -450,7 +441,6 @@ pub struct MagSwarmPid {
     ctrl: Option<Controller>,
     /// Samples taken.
     k: u64,
-    events: Vec<Event>,
     /// Outputs.
     u: [f64; 2],
     goal: [f64; 2],
@@ -500,7 +490,6 @@ impl MagSwarmPid {
             cfg_init: None,
             ctrl: None,
             k: 0,
-            events: Vec::new(),
             u: [Z_START, OMEGA_START],
             goal: R_REF_START,
             distance: 0.0,
@@ -575,8 +564,7 @@ impl MagSwarmPid {
             }
         }
         let new_setpoint = self.k == 0 || sp != self.goal_for;
-        self.apply(Event::Sample(y, sp));
-        self.events.push(Event::Sample(y, sp));
+        self.apply(y, sp);
         if new_setpoint {
             let ctrl = self.ctrl.as_ref().expect("sampled after initialisation");
             ctx.debug(
@@ -591,29 +579,24 @@ impl MagSwarmPid {
         Ok(())
     }
 
-    /// Apply one event to the controller and update the outputs (also used by the replay).
-    fn apply(&mut self, ev: Event) {
+    /// One controller sample: measurement `y` and setpoint `sp` [mm]; updates the outputs.
+    fn apply(&mut self, y: [f64; 2], sp: [f64; 2]) {
         let ctrl = self
             .ctrl
             .as_mut()
             .expect("controller built at initialisation");
-        match ev {
-            Event::Sample(y, sp) => {
-                if self.k == 0 {
-                    ctrl.reset(self.z_start, self.omega_start, y);
-                }
-                let (z, w) = ctrl.step(y, sp);
-                self.u = [z, w];
-                if let Some(s) = ctrl.setpoint_status() {
-                    self.goal = [s.r1 * 1e-3, s.r2 * 1e-3];
-                    self.distance = s.distance_mm * 1e-3;
-                }
-                self.feasible = !ctrl.target_infeasible();
-                self.goal_for = sp;
-                self.k += 1;
-            }
-            Event::Gains(g) => ctrl.set_gains(g),
+        if self.k == 0 {
+            ctrl.reset(self.z_start, self.omega_start, y);
         }
+        let (z, w) = ctrl.step(y, sp);
+        self.u = [z, w];
+        if let Some(s) = ctrl.setpoint_status() {
+            self.goal = [s.r1 * 1e-3, s.r2 * 1e-3];
+            self.distance = s.distance_mm * 1e-3;
+        }
+        self.feasible = !ctrl.target_infeasible();
+        self.goal_for = sp;
+        self.k += 1;
     }
 
     fn build_controller(&mut self) -> Result<(), Fmi2Err> {
@@ -623,7 +606,6 @@ impl MagSwarmPid {
         self.cfg_init = Some(cfg);
         self.ctrl = Some(ctrl);
         self.k = 0;
-        self.events.clear();
         self.u = [self.z_start, self.omega_start];
         Ok(())
     }
@@ -723,7 +705,6 @@ impl FmuModel for MagSwarmPid {
                 cfg.validate()
                     .map_err(|e| Fmi2Err::error(format!("{}: {e}", p.name)))?;
                 ctrl.set_gains(cfg.gains);
-                self.events.push(Event::Gains(cfg.gains));
                 self.set_override(i, value);
                 return Ok(());
             }
@@ -773,7 +754,6 @@ impl FmuModel for MagSwarmPid {
                     let mut g = ctrl.config().gains;
                     g.conditional_integration = value;
                     ctrl.set_gains(g);
-                    self.events.push(Event::Gains(g));
                     self.conditional_integration = Some(value);
                 } else {
                     self.conditional_integration =
@@ -869,23 +849,23 @@ impl FmuModel for MagSwarmPid {
             Some(c) => {
                 out.put_bool(true);
                 out.put_str(&c.to_json());
-                out.put_u64(self.events.len() as u64);
-                for ev in &self.events {
-                    match ev {
-                        Event::Sample(y, sp) => {
-                            out.put_u8(0);
-                            for x in [y[0], y[1], sp[0], sp[1]] {
-                                out.put_f64(x);
-                            }
-                        }
-                        Event::Gains(g) => {
-                            out.put_u8(1);
-                            let json = serde_json::to_string(g)
-                                .map_err(|e| Fmi2Err::error(format!("serialize gains: {e}")))?;
-                            out.put_str(&json);
-                        }
-                    }
+                let ctrl = self.ctrl.as_ref().expect("built with cfg_init");
+                let snap = serde_json::to_string(&ctrl.snapshot())
+                    .map_err(|e| Fmi2Err::error(format!("serialize controller: {e}")))?;
+                out.put_str(&snap);
+                out.put_u64(self.k);
+                for x in [
+                    self.u[0],
+                    self.u[1],
+                    self.goal[0],
+                    self.goal[1],
+                    self.distance,
+                    self.goal_for[0],
+                    self.goal_for[1],
+                ] {
+                    out.put_f64(x);
                 }
+                out.put_bool(self.feasible);
             }
         }
         Ok(())
@@ -934,31 +914,26 @@ impl FmuModel for MagSwarmPid {
         fresh.r_ref = [xs[2], xs[3]];
         fresh.t0 = xs[6];
         fresh.goal_for = [f64::NAN; 2];
-        fresh.events.clear();
         fresh.k = 0;
         if rd.bool()? {
             let cfg = PidConfig::from_json(rd.str()?).map_err(|e| bad(e.to_string()))?;
-            let ctrl = Controller::new(fresh.model.clone(), cfg.clone())
+            let mut ctrl = Controller::new(fresh.model.clone(), cfg.clone())
                 .map_err(|e| bad(e.to_string()))?;
+            let snap: magswarm_control::ControllerSnapshot =
+                serde_json::from_str(rd.str()?).map_err(|e| bad(format!("controller: {e}")))?;
+            ctrl.restore(&snap);
             fresh.cfg_init = Some(cfg);
             fresh.ctrl = Some(ctrl);
-            fresh.u = [fresh.z_start, fresh.omega_start];
-            fresh.update_goal_before_start();
-            let n = rd.u64()?;
-            for _ in 0..n {
-                let ev = match rd.u8()? {
-                    0 => {
-                        let v = [rd.f64()?, rd.f64()?, rd.f64()?, rd.f64()?];
-                        Event::Sample([v[0], v[1]], [v[2], v[3]])
-                    }
-                    1 => Event::Gains(
-                        serde_json::from_str(rd.str()?).map_err(|e| bad(e.to_string()))?,
-                    ),
-                    x => return Err(bad(format!("event tag {x}"))),
-                };
-                fresh.apply(ev);
-                fresh.events.push(ev);
+            fresh.k = rd.u64()?;
+            let mut v = [0.0; 7];
+            for x in &mut v {
+                *x = rd.f64()?;
             }
+            fresh.u = [v[0], v[1]];
+            fresh.goal = [v[2], v[3]];
+            fresh.distance = v[4];
+            fresh.goal_for = [v[5], v[6]];
+            fresh.feasible = rd.bool()?;
         } else {
             fresh.cfg_init = None;
             fresh.ctrl = None;
@@ -1105,7 +1080,7 @@ mod tests {
     }
 
     #[test]
-    fn state_round_trips_through_bytes_by_replay() {
+    fn state_round_trips_through_bytes_at_a_fixed_size() {
         let mut fmu = ready();
         let mut ctx = Ctx::silent();
         for k in 0..40 {
@@ -1128,6 +1103,18 @@ mod tests {
             assert_eq!(other.u, fmu.u, "sample {k}");
         }
         assert!(other.deserialize_state(&bytes[..bytes.len() - 3]).is_err());
+        // The state does not grow with the run (no sample history).
+        for k in 60..600 {
+            fmu.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+        }
+        let mut later = Vec::new();
+        fmu.serialize_state(&mut later).unwrap();
+        assert!(
+            later.len() < bytes.len() + 64,
+            "{} -> {}",
+            bytes.len(),
+            later.len()
+        );
     }
 
     #[test]
