@@ -128,7 +128,7 @@ pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
         bail!("{} is not an ELF shared library", lib.display());
     }
     let model_json = model.to_json()?;
-    let xml = xml_from_library(lib, &model_json)?;
+    let xml = xml_from_library(lib, &model_json, "model")?;
     // The CLI links the same table as an rlib (for the documentation page); if the two
     // disagree the library is stale and the FMU would fail its GUID check in importers.
     let guid = magswarm_fmi2::guid::<magswarm_fmu::MagSwarm>();
@@ -182,24 +182,25 @@ pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
     ))
 }
 
-/// Ask the compiled library itself for its modelDescription.xml (see
-/// `magswarm_fmu::magswarm_model_description`), so the XML packaged beside a binary is the
-/// one that binary was compiled from.
-fn xml_from_library(lib: &Path, model_json: &str) -> Result<String> {
+/// Ask the compiled library itself for its modelDescription.xml (the `fmu_model_description`
+/// symbol of `magswarm_fmi2::export_describe!`), with the defaults of `json` baked in, so the
+/// XML packaged beside a binary is the one that binary was compiled from. `what` names the
+/// JSON in errors ("model", "controller configuration").
+pub(crate) fn xml_from_library(lib: &Path, json: &str, what: &str) -> Result<String> {
     type Describe = unsafe extern "C" fn(*const std::ffi::c_char) -> *mut std::ffi::c_char;
     type Free = unsafe extern "C" fn(*mut std::ffi::c_char);
-    let json = std::ffi::CString::new(model_json).context("model JSON contains NUL")?;
-    // SAFETY: loading our own cdylib; the two symbols have exactly these signatures.
+    let json = std::ffi::CString::new(json).with_context(|| format!("{what} JSON contains NUL"))?;
+    // SAFETY: loading a magswarm FMU library; the two symbols have exactly these signatures.
     unsafe {
         let l = libloading::Library::new(lib)
             .with_context(|| format!("cannot load {}", lib.display()))?;
         let describe: libloading::Symbol<Describe> = l
-            .get(b"magswarm_model_description\0")
-            .with_context(|| format!("{} is not a MagSwarm FMU library", lib.display()))?;
-        let free: libloading::Symbol<Free> = l.get(b"magswarm_free_string\0")?;
+            .get(b"fmu_model_description\0")
+            .with_context(|| format!("{} is not a magswarm FMU library", lib.display()))?;
+        let free: libloading::Symbol<Free> = l.get(b"fmu_free_string\0")?;
         let p = describe(json.as_ptr());
         if p.is_null() {
-            bail!("{} could not describe the model", lib.display());
+            bail!("{} rejected the {what}", lib.display());
         }
         let xml = std::ffi::CStr::from_ptr(p).to_string_lossy().into_owned();
         free(p);

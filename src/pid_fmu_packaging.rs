@@ -3,7 +3,7 @@
 //!
 //! The magswarm binary does not link the controller crate (its `export` feature would clash
 //! with the plant's `fmi2*` symbols, and the plant crate is already linked): everything about
-//! the controller FMU comes from its compiled `.so`, through `magswarm_pid_model_description`
+//! the controller FMU comes from its compiled `.so`, through `fmu_model_description`
 //! (libloading), exactly as for the plant. The archive holds `modelDescription.xml`,
 //! `binaries/linux64/MagSwarmPID.so`, `resources/model.json` (the plant model the controller
 //! assumes: `--model`, default the paper model), `resources/pid.json` (the controller
@@ -51,7 +51,7 @@ pub fn run(a: &FmuArgs) -> Result<()> {
         None => locate_library(a.no_build)?,
     };
     if let Some(xml_path) = &a.xml {
-        let xml = xml_from_library(&lib, &cfg.to_json())?;
+        let xml = super::xml_from_library(&lib, &cfg.to_json(), "controller configuration")?;
         super::write_atomic(xml_path, xml.as_bytes())?;
         println!("wrote {}", xml_path.display());
         return Ok(());
@@ -112,7 +112,7 @@ pub fn package(model: &Model, cfg: &PidConfig, lib: &Path, out: &Path) -> Result
         bail!("{} is not an ELF shared library", lib.display());
     }
     let cfg_json = cfg.to_json();
-    let xml = xml_from_library(lib, &cfg_json)?;
+    let xml = super::xml_from_library(lib, &cfg_json, "controller configuration")?;
     if !xml.contains(&format!("modelIdentifier=\"{MODEL_IDENTIFIER}\"")) {
         bail!("{} is not the MagSwarmPID library", lib.display());
     }
@@ -159,29 +159,6 @@ pub fn package(model: &Model, cfg: &PidConfig, lib: &Path, out: &Path) -> Result
         cfg.sample_time_s,
         model.name
     ))
-}
-
-/// The compiled library's own modelDescription.xml for configuration `cfg_json`.
-fn xml_from_library(lib: &Path, cfg_json: &str) -> Result<String> {
-    type Describe = unsafe extern "C" fn(*const std::ffi::c_char) -> *mut std::ffi::c_char;
-    type Free = unsafe extern "C" fn(*mut std::ffi::c_char);
-    let json = std::ffi::CString::new(cfg_json).context("configuration JSON contains NUL")?;
-    // SAFETY: loading our own cdylib; the two symbols have exactly these signatures.
-    unsafe {
-        let l = libloading::Library::new(lib)
-            .with_context(|| format!("cannot load {}", lib.display()))?;
-        let describe: libloading::Symbol<Describe> = l
-            .get(b"magswarm_pid_model_description\0")
-            .with_context(|| format!("{} is not a MagSwarmPID FMU library", lib.display()))?;
-        let free: libloading::Symbol<Free> = l.get(b"magswarm_pid_free_string\0")?;
-        let p = describe(json.as_ptr());
-        if p.is_null() {
-            bail!("{} rejected the controller configuration", lib.display());
-        }
-        let xml = std::ffi::CStr::from_ptr(p).to_string_lossy().into_owned();
-        free(p);
-        Ok(xml)
-    }
 }
 
 /// Value of attribute `name` in an XML fragment (first occurrence).

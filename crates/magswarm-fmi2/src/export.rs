@@ -420,3 +420,71 @@ macro_rules! export_fmi2 {
         }
     };
 }
+
+/// Emit `fmu_model_description` and `fmu_free_string`: the FMU library describes itself, so
+/// that packaging writes the modelDescription.xml of the very binary it zips (never one from
+/// another build). `$describe` is a `fn(Option<&str>) -> Option<String>` mapping the JSON of
+/// the defaults to bake in (None: the library's own) to the XML; None means "invalid JSON".
+///
+/// ```ignore
+/// magswarm_fmi2::export_describe!(|json: Option<&str>| Some(my_xml(json)?));
+/// ```
+#[macro_export]
+macro_rules! export_describe {
+    ($describe:expr) => {
+        /// The modelDescription.xml of this library with the defaults of the JSON `json`
+        /// (null: the built-in ones); null if that JSON is invalid. Free the result with
+        /// `fmu_free_string`.
+        ///
+        /// # Safety
+        /// `json` must be null or a valid NUL-terminated string.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmu_model_description(
+            json: *const ::std::ffi::c_char,
+        ) -> *mut ::std::ffi::c_char {
+            $crate::export::describe_ffi(json, $describe)
+        }
+
+        /// Free a string returned by `fmu_model_description`.
+        ///
+        /// # Safety
+        /// `s` must come from `fmu_model_description` and not be freed twice.
+        #[no_mangle]
+        pub unsafe extern "C" fn fmu_free_string(s: *mut ::std::ffi::c_char) {
+            $crate::export::free_string_ffi(s)
+        }
+    };
+}
+
+/// The body of `fmu_model_description` (see [`export_describe!`]): no panic crosses.
+///
+/// # Safety
+/// `json` must be null or a valid NUL-terminated string.
+pub unsafe fn describe_ffi(
+    json: *const std::ffi::c_char,
+    describe: impl Fn(Option<&str>) -> Option<String> + std::panic::RefUnwindSafe,
+) -> *mut std::ffi::c_char {
+    std::panic::catch_unwind(|| {
+        let text = if json.is_null() {
+            None
+        } else {
+            Some(std::ffi::CStr::from_ptr(json).to_str().ok()?)
+        };
+        std::ffi::CString::new(describe(text)?)
+            .ok()
+            .map(std::ffi::CString::into_raw)
+    })
+    .ok()
+    .flatten()
+    .unwrap_or(std::ptr::null_mut())
+}
+
+/// The body of `fmu_free_string`.
+///
+/// # Safety
+/// `s` must be null or come from [`describe_ffi`], and not be freed twice.
+pub unsafe fn free_string_ffi(s: *mut std::ffi::c_char) {
+    if !s.is_null() {
+        drop(std::ffi::CString::from_raw(s));
+    }
+}

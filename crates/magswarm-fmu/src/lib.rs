@@ -900,46 +900,16 @@ impl FmuModel for MagSwarm {
 #[cfg(feature = "export")]
 magswarm_fmi2::export_fmi2!(MagSwarm);
 
-/// The modelDescription.xml of this very library, with the parameter start values of the
-/// model JSON `model_json` (null: the built-in paper model). Packaging calls this through the
-/// compiled `.so`, so the XML in an FMU always comes from the binary beside it. Returns null
-/// on a bad model (the reason is not reported: packaging validates the model first). Free the
-/// result with [`magswarm_free_string`].
-///
-/// # Safety
-/// `model_json` must be null or a valid NUL-terminated string.
+// Packaging asks the compiled library for its own XML (`fmu_model_description`), with the
+// parameter start values of the model JSON to bake in.
 #[cfg(feature = "export")]
-#[no_mangle]
-pub unsafe extern "C" fn magswarm_model_description(
-    model_json: *const std::ffi::c_char,
-) -> *mut std::ffi::c_char {
-    std::panic::catch_unwind(|| {
-        let model = if model_json.is_null() {
-            Model::paper()
-        } else {
-            let text = std::ffi::CStr::from_ptr(model_json).to_str().ok()?;
-            Model::from_json_str(text, "model").ok()?
-        };
-        std::ffi::CString::new(model_description(&model, None))
-            .ok()
-            .map(|c| c.into_raw())
-    })
-    .ok()
-    .flatten()
-    .unwrap_or(std::ptr::null_mut())
-}
-
-/// Free a string returned by [`magswarm_model_description`].
-///
-/// # Safety
-/// `s` must come from [`magswarm_model_description`] and not be freed twice.
-#[cfg(feature = "export")]
-#[no_mangle]
-pub unsafe extern "C" fn magswarm_free_string(s: *mut std::ffi::c_char) {
-    if !s.is_null() {
-        drop(std::ffi::CString::from_raw(s));
-    }
-}
+magswarm_fmi2::export_describe!(|json: Option<&str>| {
+    let model = match json {
+        None => Model::paper(),
+        Some(text) => Model::from_json_str(text, "model").ok()?,
+    };
+    Some(model_description(&model, None))
+});
 
 #[cfg(test)]
 mod tests {

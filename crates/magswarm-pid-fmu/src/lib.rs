@@ -967,45 +967,16 @@ impl FmuModel for MagSwarmPid {
 #[cfg(feature = "export")]
 magswarm_fmi2::export_fmi2!(MagSwarmPid);
 
-/// The modelDescription.xml of this very library with the start values of the configuration
-/// JSON `config_json` (null: the library's defaults). Packaging calls this through the compiled
-/// `.so`, so the XML in the FMU always comes from the binary beside it. Returns null on a bad
-/// configuration. Free the result with [`magswarm_pid_free_string`].
-///
-/// # Safety
-/// `config_json` must be null or a valid NUL-terminated string.
+// Packaging asks the compiled library for its own XML (`fmu_model_description`), with the
+// parameter start values of the controller configuration JSON to bake in.
 #[cfg(feature = "export")]
-#[no_mangle]
-pub unsafe extern "C" fn magswarm_pid_model_description(
-    config_json: *const std::ffi::c_char,
-) -> *mut std::ffi::c_char {
-    std::panic::catch_unwind(|| {
-        let cfg = if config_json.is_null() {
-            PidConfig::default()
-        } else {
-            let text = std::ffi::CStr::from_ptr(config_json).to_str().ok()?;
-            PidConfig::from_json(text).ok()?
-        };
-        std::ffi::CString::new(model_description(&cfg, None))
-            .ok()
-            .map(|c| c.into_raw())
-    })
-    .ok()
-    .flatten()
-    .unwrap_or(std::ptr::null_mut())
-}
-
-/// Free a string returned by [`magswarm_pid_model_description`].
-///
-/// # Safety
-/// `s` must come from [`magswarm_pid_model_description`] and not be freed twice.
-#[cfg(feature = "export")]
-#[no_mangle]
-pub unsafe extern "C" fn magswarm_pid_free_string(s: *mut std::ffi::c_char) {
-    if !s.is_null() {
-        drop(std::ffi::CString::from_raw(s));
-    }
-}
+magswarm_fmi2::export_describe!(|json: Option<&str>| {
+    let cfg = match json {
+        None => PidConfig::default(),
+        Some(text) => PidConfig::from_json(text).ok()?,
+    };
+    Some(model_description(&cfg, None))
+});
 
 #[cfg(test)]
 mod tests {
