@@ -73,7 +73,7 @@ pub fn run(a: &FmuArgs) -> Result<()> {
     }
     let lib = match &a.lib {
         Some(p) => p.clone(),
-        None => locate_library(a.no_build)?,
+        None => locate_library("magswarm-fmu", LIB_FILE, "MAGSWARM_FMU_LIB", a.no_build)?,
     };
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
     let summary = package(&model, &lib, &out)?;
@@ -81,9 +81,16 @@ pub fn run(a: &FmuArgs) -> Result<()> {
     Ok(())
 }
 
-/// Find (and unless `no_build`, build) the FMU's shared library.
-fn locate_library(no_build: bool) -> Result<PathBuf> {
-    if let Ok(p) = std::env::var("MAGSWARM_FMU_LIB") {
+/// Find (and unless `no_build`, build) the shared library of the FMU crate `krate`
+/// (`lib_file` on disk): `$env_var` if set, else `cargo build -p krate` in the workspace this
+/// executable was built in (same profile) and the library beside the executable.
+pub(crate) fn locate_library(
+    krate: &str,
+    lib_file: &str,
+    env_var: &str,
+    no_build: bool,
+) -> Result<PathBuf> {
+    if let Ok(p) = std::env::var(env_var) {
         return Ok(PathBuf::from(p));
     }
     let exe = std::env::current_exe().context("cannot locate the magswarm executable")?;
@@ -91,30 +98,29 @@ fn locate_library(no_build: bool) -> Result<PathBuf> {
     // target/<profile>/magswarm -> the workspace two levels up, if this is a source build.
     let workspace = exe_dir
         .ancestors()
-        .find(|d| d.join("crates/magswarm-fmu/Cargo.toml").is_file());
+        .find(|d| d.join(format!("crates/{krate}/Cargo.toml")).is_file());
     if let (false, Some(ws)) = (no_build, workspace) {
         let profile = exe_dir
             .file_name()
             .and_then(|s| s.to_str())
             .unwrap_or("release");
         let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-        cmd.current_dir(ws).args(["build", "-p", "magswarm-fmu"]);
+        cmd.current_dir(ws).args(["build", "-p", krate]);
         if profile == "release" {
             cmd.arg("--release");
         }
-        eprintln!("building the FMU library: cargo build -p magswarm-fmu ({profile})");
+        eprintln!("building the FMU library: cargo build -p {krate} ({profile})");
         let status = cmd
             .status()
-            .context("cannot run cargo to build the FMU library")?;
+            .with_context(|| format!("cannot run cargo to build {krate}"))?;
         if !status.success() {
-            bail!("cargo build -p magswarm-fmu failed ({status})");
+            bail!("cargo build -p {krate} failed ({status})");
         }
     }
-    let lib = exe_dir.join(LIB_FILE);
+    let lib = exe_dir.join(lib_file);
     if !lib.is_file() {
         bail!(
-            "{} not found; build it with `cargo build --release -p magswarm-fmu` \
-             or pass --lib PATH",
+            "{} not found; build it with `cargo build --release -p {krate}` or pass --lib PATH",
             lib.display()
         );
     }

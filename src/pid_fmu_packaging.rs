@@ -17,7 +17,6 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 use magswarm_control::PidConfig;
@@ -48,7 +47,12 @@ pub fn run(a: &FmuArgs) -> Result<()> {
     };
     let lib = match &a.lib {
         Some(p) => p.clone(),
-        None => locate_library(a.no_build)?,
+        None => super::locate_library(
+            "magswarm-pid-fmu",
+            LIB_FILE,
+            "MAGSWARM_PID_FMU_LIB",
+            a.no_build,
+        )?,
     };
     if let Some(xml_path) = &a.xml {
         let xml = super::xml_from_library(&lib, &cfg.to_json(), "controller configuration")?;
@@ -59,50 +63,6 @@ pub fn run(a: &FmuArgs) -> Result<()> {
     let out = a.out.clone().unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
     println!("{}", package(&model, &cfg, &lib, &out)?);
     Ok(())
-}
-
-/// Find (and unless `no_build`, build) the controller FMU's shared library: `$MAGSWARM_PID_FMU_LIB`,
-/// or `cargo build -p magswarm-pid-fmu` in the workspace this executable was built in and the
-/// library beside the executable.
-pub fn locate_library(no_build: bool) -> Result<PathBuf> {
-    if let Ok(p) = std::env::var("MAGSWARM_PID_FMU_LIB") {
-        return Ok(PathBuf::from(p));
-    }
-    let exe = std::env::current_exe().context("cannot locate the magswarm executable")?;
-    let exe_dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
-    let workspace = exe_dir
-        .ancestors()
-        .find(|d| d.join("crates/magswarm-pid-fmu/Cargo.toml").is_file());
-    if let (false, Some(ws)) = (no_build, workspace) {
-        let profile = exe_dir
-            .file_name()
-            .and_then(|s| s.to_str())
-            .unwrap_or("release");
-        let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
-        cmd.current_dir(ws)
-            .args(["build", "-p", "magswarm-pid-fmu"]);
-        if profile == "release" {
-            cmd.arg("--release");
-        }
-        eprintln!(
-            "building the controller FMU library: cargo build -p magswarm-pid-fmu ({profile})"
-        );
-        let status = cmd
-            .status()
-            .context("cannot run cargo to build the controller FMU library")?;
-        if !status.success() {
-            bail!("cargo build -p magswarm-pid-fmu failed ({status})");
-        }
-    }
-    let lib = exe_dir.join(LIB_FILE);
-    if !lib.is_file() {
-        bail!(
-            "{} not found; build it with `cargo build --release -p magswarm-pid-fmu` \
-             or pass --lib PATH",
-            lib.display()
-        );
-    }
-    Ok(lib)
 }
 
 /// Package `lib` with `model` and `cfg` baked in as `out`; returns a one-line summary.

@@ -430,6 +430,27 @@ fn distinct(v: impl Iterator<Item = f64>) -> Vec<f64> {
 }
 
 /// Refuse data that cannot identify the free parameters, saying what is missing.
+/// Estimates of the free parameters of a fitted model, with 95 % intervals from the
+/// Jacobian covariance (Student t on the fit's degrees of freedom).
+fn estimates(free: &[Free], fitted: &Model, prior: &Model, cov: &fit::Covariance) -> Vec<Estimate> {
+    let t = fit::t975(cov.dof);
+    free.iter()
+        .enumerate()
+        .map(|(j, f)| {
+            let v = params::get(fitted, f.name());
+            Estimate {
+                name: f.name().to_string(),
+                prior: params::get(prior, f.name()),
+                value: v,
+                se: cov.se[j],
+                ci: (v - t * cov.se[j], v + t * cov.se[j]),
+                boot: None,
+                at_bound: f.at_bound(v),
+            }
+        })
+        .collect()
+}
+
 fn check_identifiable(points: &[OpPoint], free: &[Free], counts: &Counts) -> Result<()> {
     if counts.settled == 0 {
         bail!(
@@ -600,23 +621,7 @@ fn steady_fit(
                 }
             }
         }
-        let t = fit::t975(cov.dof);
-        let estimates = free
-            .iter()
-            .enumerate()
-            .map(|(j, f)| {
-                let v = params::get(&m, f.name());
-                Estimate {
-                    name: f.name().to_string(),
-                    prior: params::get(prior, f.name()),
-                    value: v,
-                    se: cov.se[j],
-                    ci: (v - t * cov.se[j], v + t * cov.se[j]),
-                    boot: None,
-                    at_bound: f.at_bound(v),
-                }
-            })
-            .collect();
+        let estimates = estimates(&free, &m, prior, &cov);
         return (
             m,
             SteadyFit {
@@ -817,23 +822,7 @@ pub fn identify(logs: &[Log], prior: &Model, cfg: &Config) -> Result<Identificat
         let before = rms_axes(&dynfit::residuals(&model, &trans, sd), sd);
         let (m2, run, cov) = dynfit::fit(&model, &free_dy, &trans, sd);
         let after = rms_axes(&dynfit::residuals(&m2, &trans, sd), sd);
-        let t = fit::t975(cov.dof);
-        let estimates = free_dy
-            .iter()
-            .enumerate()
-            .map(|(j, f)| {
-                let v = params::get(&m2, f.name());
-                Estimate {
-                    name: f.name().to_string(),
-                    prior: params::get(prior, f.name()),
-                    value: v,
-                    se: cov.se[j],
-                    ci: (v - t * cov.se[j], v + t * cov.se[j]),
-                    boot: None,
-                    at_bound: f.at_bound(v),
-                }
-            })
-            .collect();
+        let estimates = estimates(&free_dy, &m2, prior, &cov);
         model = m2;
         dynamics = Some(DynFit {
             estimates,
