@@ -311,6 +311,35 @@ def test_non_finite_input_is_an_error_not_nan_outputs(make_slave, vr, fmu_log, n
     assert np.all(np.isfinite(out))
 
 
+def test_z_inside_the_magnet_is_an_error_naming_z_m(make_slave, vr, fmu_log):
+    """A z_m that would put the swarm inside the magnet sphere is bad input, not extrapolation."""
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import fmi2Error
+
+    s = make_slave("inside", callbacks=fmu_log.callbacks, logging_on=True)
+    s.run(step_schedule([(0.2, 8.5, 4.0)], H), H)
+    before = s.outputs()
+    with pytest.raises(FMICallException):
+        s.fmu.setReal([vr["z_m"]], [-0.5])
+    errors = [m for st, _, m in fmu_log.messages if st >= fmi2Error]
+    assert any("z_m" in m and "inside the magnet" in m for m in errors), errors
+    assert np.array_equal(s.outputs(), before)
+
+
+def test_absurd_frequency_fails_the_step_with_a_message_naming_the_inputs(make_slave, vr, fmu_log):
+    """1e9 rad/s makes (4) too stiff to integrate: a clear fmi2Error, never a crash or NaN."""
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import fmi2Error
+
+    s = make_slave("stiff", callbacks=fmu_log.callbacks, logging_on=True)
+    s.fmu.setReal([vr["omega_m"]], [1e9])
+    with pytest.raises(FMICallException):
+        s.fmu.doStep(currentCommunicationPoint=s.t, communicationStepSize=0.1)
+    errors = [m for st, _, m in fmu_log.messages if st >= fmi2Error]
+    assert any("f = " in m and "frequency above the validated envelope" in m for m in errors), errors
+    assert np.all(np.isfinite(s.outputs()))
+
+
 def test_nan_in_an_input_table_fails_the_simulation(fmu_path):
     from fmpy import simulate_fmu
     from fmpy.fmi1 import FMICallException

@@ -704,10 +704,16 @@ impl FmuModel for MagSwarm {
 
     fn do_step(&mut self, ctx: &mut Ctx<'_>, _current_time: f64, step: f64) -> Result<(), Fmi2Err> {
         self.check_envelope(ctx);
+        let (z, w) = (self.z_m, self.omega);
         let plant = self.plant();
-        plant
-            .step(step)
-            .map_err(|e| Fmi2Err::error(format!("doStep: {e}")))
+        plant.step(step).map_err(|e| {
+            Fmi2Err::error(format!(
+                "doStep: ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
+                z * 1e3,
+                w.abs() / std::f64::consts::TAU,
+                plant.validity().describe()
+            ))
+        })
     }
 
     fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
@@ -750,7 +756,22 @@ impl FmuModel for MagSwarm {
 
     fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), Fmi2Err> {
         match vr {
-            vr::Z_M => self.z_m = value,
+            vr::Z_M => {
+                // Below -z_offset the swarm plane would cut through the magnet sphere: no
+                // extrapolation means anything there, so it is bad input, like NaN.
+                let floor = -self.model.magnet.z_offset_m;
+                if value <= floor {
+                    return Err(Fmi2Err::error(format!(
+                        "z_m = {:.3} mm would put the swarm inside the magnet (z_m must exceed \
+                         {:.3} mm; validated envelope {}-{} mm)",
+                        value * 1e3,
+                        floor * 1e3,
+                        self.model.envelope.z_min_m * 1e3,
+                        self.model.envelope.z_max_m * 1e3
+                    )));
+                }
+                self.z_m = value
+            }
             vr::OMEGA_M => self.omega = value,
             vr::R1_START => {
                 self.r_start[0] = value;
