@@ -259,14 +259,17 @@ def plot(path: pathlib.Path, rows: np.ndarray) -> bool:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--fmu", type=pathlib.Path, default=pathlib.Path("target/fmu/MagSwarm.fmu"))
-    ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("target/demo/pid_tracking_fmpy.csv"))
+    ap.add_argument("--fmu", type=pathlib.Path, default=pathlib.Path("target/fmu/MagSwarm.fmu"),
+                    help="plant FMU (default: %(default)s)")
+    ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("target/demo/pid_tracking_fmpy.csv"),
+                    help="measurement log to write, CONTRACTS.md format (default: %(default)s)")
     ap.add_argument("--pid-fmu", type=pathlib.Path, default=None,
                     help="controller FMU (default: MagSwarmPID.fmu beside --fmu)")
     ap.add_argument("--config", type=pathlib.Path, default=None,
                     help="controller configuration (magswarm-pid/1 JSON) passed as config_file")
     ap.add_argument("--segments", default=None, help='"seconds:r1_mm:r2_mm,..." (default the seed\'s)')
-    ap.add_argument("--plot", type=pathlib.Path, default=None)
+    ap.add_argument("--plot", type=pathlib.Path, default=None,
+                    help="PNG of radii vs references and inputs vs time (needs matplotlib)")
     ap.add_argument("--order", choices=["sequential", "jacobi"], default="sequential",
                     help="sequential (default, the Rust harness's) or jacobi (libcosim's one-sample delay)")
     ap.add_argument("--libcosim", type=pathlib.Path, default=None, metavar="SYSTEM_DIR",
