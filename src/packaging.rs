@@ -145,7 +145,7 @@ pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
             lib.display()
         );
     }
-    let doc = documentation_html(model);
+    let doc = documentation_html(&xml, model);
 
     let mut buf = std::io::Cursor::new(Vec::new());
     {
@@ -233,15 +233,14 @@ fn esc(s: &str) -> String {
 
 /// `documentation/index.html`: what the model is, its variables (from the same table as the
 /// XML), units, the envelope and the seed.
-pub fn documentation_html(model: &Model) -> String {
+pub fn documentation_html(xml: &str, model: &Model) -> String {
     use magswarm_fmi2::{Causality, Start};
     let info = magswarm_fmu::model_info();
-    let xml = magswarm_fmu::model_description(model, None);
     let mut rows = String::new();
     for v in info.variables {
         // Start values as packaged (baked model), read back from the generated XML's table.
         let start = match (v.causality, v.start) {
-            (Causality::Parameter, _) => start_in_xml(&xml, v.name).unwrap_or_default(),
+            (Causality::Parameter, _) => start_in_xml(xml, v.name).unwrap_or_default(),
             (_, Some(Start::Real(x))) => format!("{x}"),
             (_, Some(s)) => s.to_xml_text(),
             _ => String::new(),

@@ -22,7 +22,7 @@ use anyhow::{bail, Context, Result};
 use magswarm_control::PidConfig;
 use magswarm_model::Model;
 
-use super::FmuArgs;
+use super::{esc, FmuArgs};
 
 /// Model identifier of the controller FMU.
 pub const MODEL_IDENTIFIER: &str = "MagSwarmPID";
@@ -127,13 +127,6 @@ fn attr(xml: &str, name: &str) -> Option<String> {
     let s = xml.find(&key)? + key.len();
     let e = xml[s..].find('"')?;
     Some(xml[s..s + e].to_string())
-}
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }
 
 /// `documentation/index.html`, the variable table read back from the packaged XML.

@@ -49,22 +49,8 @@ impl fmt::Display for VarType {
     }
 }
 
-/// Causality of a scalar variable.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Causality {
-    /// `parameter`.
-    Parameter,
-    /// `calculatedParameter`.
-    CalculatedParameter,
-    /// `input`.
-    Input,
-    /// `output`.
-    Output,
-    /// `local`.
-    Local,
-    /// `independent`.
-    Independent,
-}
+/// Causality of a scalar variable: the same FMI 2.0 enum the export shell uses.
+pub use magswarm_fmi2::Causality;
 
 /// Start value from modelDescription.xml (String start values are not parsed by the `fmi`
 /// crate's schema and are reported as `None`).

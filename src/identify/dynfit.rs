@@ -10,7 +10,7 @@
 
 use super::data::Session;
 use super::fit::{self, Covariance, Run};
-use super::params::{self, Free, Transform};
+use super::params::{self, Free};
 use crate::predict::{replay, InputRow};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use magswarm_model::Model;
@@ -119,10 +119,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for DynProblem<'_> {
             params::set(&mut m, f.name(), theta[c] + h);
             let r = residuals(&m, self.data, self.sd);
             params::set(&mut m, f.name(), theta[c]);
-            let d = match f.def.transform {
-                Transform::Log => self.u[c].exp(),
-                Transform::Sin => (f.hi - f.lo) / 2.0 * self.u[c].cos(),
-            };
+            let d = f.dtheta_du(self.u[c]);
             for i in 0..base.len() {
                 j[(i, c)] = (r[i] - base[i]) / h * d;
             }

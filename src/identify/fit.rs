@@ -139,19 +139,12 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for SteadyProblem<'_> {
             params::set(&mut m, f.name(), th[c]);
             let r = self.res_of(&m, &th);
             params::set(&mut m, f.name(), theta[c]);
-            let dtheta_du = dtheta_du(f, self.u[c]);
+            let dtheta_du = f.dtheta_du(self.u[c]);
             for i in 0..base.len() {
                 j[(i, c)] = (r[i] - base[i]) / h * dtheta_du;
             }
         }
         Some(j)
-    }
-}
-
-fn dtheta_du(f: &Free, u: f64) -> f64 {
-    match f.def.transform {
-        Transform::Log => u.exp(),
-        Transform::Sin => (f.hi - f.lo) / 2.0 * u.cos(),
     }
 }
 

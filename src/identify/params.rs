@@ -186,6 +186,15 @@ impl Free {
         }
     }
 
+    /// d theta / d u: the chain-rule factor from finite differences in theta to the
+    /// Jacobian in the optimiser's unbounded u.
+    pub fn dtheta_du(&self, u: f64) -> f64 {
+        match self.def.transform {
+            Transform::Log => u.exp(),
+            Transform::Sin => (self.hi - self.lo) / 2.0 * u.cos(),
+        }
+    }
+
     /// u(theta), theta clamped into the bounds first.
     pub fn to_u(&self, theta: f64) -> f64 {
         let t = theta.clamp(self.lo, self.hi);

@@ -92,3 +92,30 @@ pub const ONE: UnitDefinition = UnitDefinition {
     base: BaseUnit::ONE,
     display_units: &[],
 };
+/// `mm` as a unit of its own (factor 0.001 to m), for parameters that keep a paper's units.
+pub const MILLIMETRE: UnitDefinition = UnitDefinition {
+    name: "mm",
+    base: BaseUnit {
+        factor: 0.001,
+        ..base(0, 1, 0, 0, 0, 0, 0, 0)
+    },
+    display_units: &[],
+};
+/// `1/s` (rates, gains).
+pub const PER_SECOND: UnitDefinition = UnitDefinition {
+    name: "1/s",
+    base: base(0, 0, -1, 0, 0, 0, 0, 0),
+    display_units: &[],
+};
+/// `m/s`, displayed as `mm/s`.
+pub const METRE_PER_SECOND: UnitDefinition = UnitDefinition {
+    name: "m/s",
+    base: base(0, 1, -1, 0, 0, 0, 0, 0),
+    display_units: &[display("mm/s", 1000.0)],
+};
+/// `Hz/s` (rate of a frequency).
+pub const HERTZ_PER_SECOND: UnitDefinition = UnitDefinition {
+    name: "Hz/s",
+    base: base(0, 0, -2, 0, 0, 0, 0, 0),
+    display_units: &[],
+};

@@ -14,8 +14,8 @@ use std::sync::LazyLock;
 use magswarm_fmi2::bytes::{ByteReader, PutBytes};
 use magswarm_fmi2::units;
 use magswarm_fmi2::{
-    BaseUnit, Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo,
-    Start, UnitDefinition, Variable, XmlOptions,
+    Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo, Start,
+    UnitDefinition, Variable, XmlOptions,
 };
 use magswarm_model::{Confinement, Model, Plant};
 
@@ -300,25 +300,10 @@ static UNITS: &[UnitDefinition] = &[
     units::TESLA_PER_METRE,
     units::TESLA2_PER_METRE2,
     units::ONE,
-    UnitDefinition {
-        name: "mm",
-        base: BaseUnit {
-            factor: 0.001,
-            ..units::base(0, 1, 0, 0, 0, 0, 0, 0)
-        },
-        display_units: &[],
-    },
+    units::MILLIMETRE,
     units::HERTZ,
-    UnitDefinition {
-        name: "1/s",
-        base: units::base(0, 0, -1, 0, 0, 0, 0, 0),
-        display_units: &[],
-    },
-    UnitDefinition {
-        name: "m/s",
-        base: units::base(0, 1, -1, 0, 0, 0, 0, 0),
-        display_units: &[units::display("mm/s", 1000.0)],
-    },
+    units::PER_SECOND,
+    units::METRE_PER_SECOND,
 ];
 
 static LOG_CATEGORIES: &[LogCategory] = &[

@@ -243,21 +243,9 @@ static UNITS: &[UnitDefinition] = &[
     units::SECOND,
     units::HERTZ,
     units::ONE,
-    UnitDefinition {
-        name: "1/s",
-        base: units::base(0, 0, -1, 0, 0, 0, 0, 0),
-        display_units: &[],
-    },
-    UnitDefinition {
-        name: "m/s",
-        base: units::base(0, 1, -1, 0, 0, 0, 0, 0),
-        display_units: &[units::display("mm/s", 1000.0)],
-    },
-    UnitDefinition {
-        name: "Hz/s",
-        base: units::base(0, 0, -2, 0, 0, 0, 0, 0),
-        display_units: &[],
-    },
+    units::PER_SECOND,
+    units::METRE_PER_SECOND,
+    units::HERTZ_PER_SECOND,
 ];
 
 static LOG_CATEGORIES: &[LogCategory] = &[
