@@ -167,7 +167,7 @@ pub struct ControlCfg {
 }
 
 /// `[shadow]`: a model run beside the rig on the same inputs.
-#[derive(Debug, Clone, Deserialize, Default)]
+#[derive(Debug, Clone, Deserialize)]
 pub struct ShadowCfg {
     /// Model file (default: the paper model). `enabled = false` turns it off.
     #[serde(default)]
@@ -232,6 +232,16 @@ pub struct RigConfig {
     /// Where the file is (relative paths in it are relative to its folder).
     #[serde(skip)]
     pub base: PathBuf,
+}
+
+impl Default for ShadowCfg {
+    fn default() -> Self {
+        ShadowCfg {
+            model: None,
+            enabled: true,
+            extra: Extra::new(),
+        }
+    }
 }
 
 fn d_rtde() -> u16 {
@@ -323,7 +333,10 @@ impl RigConfig {
         let l = &self.limits;
         let range = |key: &str, r: [f64; 2], lo: f64, hi: f64| {
             if !(r[0].is_finite() && r[1].is_finite() && r[0] < r[1]) {
-                return Err(bad(key, format!("{r:?} is not an increasing pair of numbers")));
+                return Err(bad(
+                    key,
+                    format!("{r:?} is not an increasing pair of numbers"),
+                ));
             }
             if r[0] < lo || r[1] > hi {
                 return Err(bad(key, format!("{r:?} leaves [{lo}, {hi}]")));
@@ -353,7 +366,10 @@ impl RigConfig {
         if self.robot.frequency_hz > 500.0 {
             return Err(bad(
                 "robot.frequency_hz",
-                format!("{} Hz is above the controller's 500 Hz", self.robot.frequency_hz),
+                format!(
+                    "{} Hz is above the controller's 500 Hz",
+                    self.robot.frequency_hz
+                ),
             ));
         }
         if !self.robot.z_tcp_at_zero_m.is_finite() {
@@ -365,13 +381,19 @@ impl RigConfig {
         if self.stepper.kind != "tmcl" {
             return Err(bad(
                 "stepper.kind",
-                format!("{:?} is not a known driver (known: \"tmcl\")", self.stepper.kind),
+                format!(
+                    "{:?} is not a known driver (known: \"tmcl\")",
+                    self.stepper.kind
+                ),
             ));
         }
         match self.camera.kind.as_str() {
             "replay" => {
                 if self.camera.dir.is_none() {
-                    return Err(bad("camera.dir", "a replay camera needs a frame folder".into()));
+                    return Err(bad(
+                        "camera.dir",
+                        "a replay camera needs a frame folder".into(),
+                    ));
                 }
             }
             "emulated" | "aravis" => {}
@@ -470,16 +492,24 @@ f_rate_hz_s = 2.0
     #[test]
     fn errors_name_the_key() {
         let t = CONTRACT_EXAMPLE.replace("z_rate_mm_s = 10.0", "z_rate_mm_s = -1.0");
-        let e = RigConfig::parse(&t, Path::new("RIG.toml")).unwrap_err().to_string();
+        let e = RigConfig::parse(&t, Path::new("RIG.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("limits.z_rate_mm_s"), "{e}");
         let t = CONTRACT_EXAMPLE.replace("z_m_mm = [3.5, 23.5]", "z_m_mm = [23.5, 3.5]");
-        let e = RigConfig::parse(&t, Path::new("RIG.toml")).unwrap_err().to_string();
+        let e = RigConfig::parse(&t, Path::new("RIG.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("limits.z_m_mm"), "{e}");
         let t = CONTRACT_EXAMPLE.replace("velocity_per_hz = 51200.0", "velocity_per_hz = \"fast\"");
-        let e = RigConfig::parse(&t, Path::new("RIG.toml")).unwrap_err().to_string();
+        let e = RigConfig::parse(&t, Path::new("RIG.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("velocity_per_hz"), "{e}");
         let t = CONTRACT_EXAMPLE.replace("z_tcp_at_zero_m = 0.400", "");
-        let e = RigConfig::parse(&t, Path::new("RIG.toml")).unwrap_err().to_string();
+        let e = RigConfig::parse(&t, Path::new("RIG.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("z_tcp_at_zero_m"), "{e}");
     }
 }

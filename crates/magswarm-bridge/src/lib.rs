@@ -10,9 +10,15 @@
 //! Nothing here is linked into the FMU libraries: sockets, serial lines and ptys stay in
 //! this crate.
 
+pub mod camera;
+pub mod check;
 pub mod config;
+pub mod emulate;
+pub mod measure;
 pub mod rtde;
+pub mod run;
 pub mod safety;
+pub mod schedule;
 pub mod stepper;
 pub mod stepper_emu;
 pub mod ur;

@@ -244,8 +244,14 @@ mod tests {
     #[test]
     fn nan_is_a_fault_not_a_clamp() {
         let mut s = Shaper::new(env(), Some((10.0, 4.0)));
-        assert!(matches!(s.shape(f64::NAN, 4.0, 0.1), Err(Fault::NanCommand(_))));
-        assert!(matches!(s.shape(10.0, f64::INFINITY, 0.1), Err(Fault::NanCommand(_))));
+        assert!(matches!(
+            s.shape(f64::NAN, 4.0, 0.1),
+            Err(Fault::NanCommand(_))
+        ));
+        assert!(matches!(
+            s.shape(10.0, f64::INFINITY, 0.1),
+            Err(Fault::NanCommand(_))
+        ));
         assert_eq!(s.last(), Some((10.0, 4.0)));
     }
 

@@ -176,7 +176,9 @@ impl<P: Read + Write + Send> Tmcl<P> {
             .map_err(|e| StepperError::Serial(format!("writing instruction {instruction}: {e}")))?;
         let mut r = [0u8; 9];
         self.port.read_exact(&mut r).map_err(|e| {
-            StepperError::Serial(format!("reading the reply to instruction {instruction}: {e}"))
+            StepperError::Serial(format!(
+                "reading the reply to instruction {instruction}: {e}"
+            ))
         })?;
         let rep = Reply::decode(&r)?;
         if rep.status != status::OK && rep.status != status::LOADED {
@@ -198,7 +200,9 @@ impl<P: Read + Write + Send> Tmcl<P> {
     /// TMCL velocity of `f_hz` (`round(f_hz * velocity_per_hz)`).
     pub fn velocity(&self, f_hz: f64) -> Result<i32, StepperError> {
         if !f_hz.is_finite() {
-            return Err(StepperError::Command(format!("frequency {f_hz} Hz is not finite")));
+            return Err(StepperError::Command(format!(
+                "frequency {f_hz} Hz is not finite"
+            )));
         }
         let v = (f_hz * self.velocity_per_hz).round();
         if v.abs() > i32::MAX as f64 {
@@ -211,7 +215,8 @@ impl<P: Read + Write + Send> Tmcl<P> {
 
     /// Set the module's maximum acceleration (axis parameter 5).
     pub fn set_max_acceleration(&mut self, a: i32) -> Result<(), StepperError> {
-        self.transact(cmd::SAP, axis::MAX_ACCELERATION, a).map(|_| ())
+        self.transact(cmd::SAP, axis::MAX_ACCELERATION, a)
+            .map(|_| ())
     }
 }
 
@@ -305,6 +310,9 @@ mod tests {
         assert_eq!(Reply::decode(&r.encode()).unwrap(), r);
         let mut bad = r.encode();
         bad[8] ^= 1;
-        assert!(matches!(Reply::decode(&bad), Err(StepperError::BadReply(_))));
+        assert!(matches!(
+            Reply::decode(&bad),
+            Err(StepperError::BadReply(_))
+        ));
     }
 }

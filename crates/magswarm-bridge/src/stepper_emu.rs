@@ -90,7 +90,8 @@ impl StepperEmulator {
         termios::cfmakeraw(&mut t);
         termios::tcsetattr(pty.slave.as_fd(), termios::SetArg::TCSANOW, &t)
             .map_err(|e| format!("tcsetattr: {e}"))?;
-        let mut tm = termios::tcgetattr(pty.master.as_fd()).map_err(|e| format!("tcgetattr: {e}"))?;
+        let mut tm =
+            termios::tcgetattr(pty.master.as_fd()).map_err(|e| format!("tcgetattr: {e}"))?;
         termios::cfmakeraw(&mut tm);
         let _ = termios::tcsetattr(pty.master.as_fd(), termios::SetArg::TCSANOW, &tm);
         let path = nix::unistd::ttyname(pty.slave.as_fd())
@@ -116,7 +117,10 @@ impl StepperEmulator {
 
     /// Instructions received so far.
     pub fn received(&self) -> Vec<Received> {
-        self.state.lock().map(|s| s.received.clone()).unwrap_or_default()
+        self.state
+            .lock()
+            .map(|s| s.received.clone())
+            .unwrap_or_default()
     }
 
     /// (target, actual) velocity [TMCL units].

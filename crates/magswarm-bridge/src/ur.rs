@@ -166,7 +166,12 @@ end
 }
 
 /// Send a program to the secondary interface.
-pub fn upload_script(host: &str, port: u16, program: &str, timeout: Duration) -> Result<(), String> {
+pub fn upload_script(
+    host: &str,
+    port: u16,
+    program: &str,
+    timeout: Duration,
+) -> Result<(), String> {
     let addr = format!("{host}:{port}");
     let sa = addr
         .to_socket_addrs()

@@ -52,7 +52,11 @@ pub struct ControllerVersion {
 
 impl std::fmt::Display for ControllerVersion {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}.{}.{}.{}", self.major, self.minor, self.bugfix, self.build)
+        write!(
+            f,
+            "{}.{}.{}.{}",
+            self.major, self.minor, self.bugfix, self.build
+        )
     }
 }
 
@@ -96,7 +100,9 @@ impl RtdeClient {
             })?;
         let stream =
             TcpStream::connect_timeout(&addr, timeout).map_err(|e| io_err("connecting", e))?;
-        stream.set_nodelay(true).map_err(|e| io_err("TCP_NODELAY", e))?;
+        stream
+            .set_nodelay(true)
+            .map_err(|e| io_err("TCP_NODELAY", e))?;
         stream
             .set_read_timeout(Some(timeout))
             .map_err(|e| io_err("read timeout", e))?;
@@ -225,7 +231,11 @@ impl RtdeClient {
     }
 
     /// Set up the output recipe at `frequency_hz`.
-    pub fn setup_outputs(&mut self, frequency_hz: f64, names: &[&str]) -> Result<Recipe, RtdeError> {
+    pub fn setup_outputs(
+        &mut self,
+        frequency_hz: f64,
+        names: &[&str],
+    ) -> Result<Recipe, RtdeError> {
         let mut payload = frequency_hz.to_be_bytes().to_vec();
         payload.extend_from_slice(names.join(",").as_bytes());
         self.send(pkt::SETUP_OUTPUTS, &payload)?;
@@ -303,7 +313,12 @@ pub fn encode_inputs(recipe: &Recipe, values: &[Value]) -> Result<Vec<u8>, Strin
 pub fn decode_outputs(recipe: &Recipe, p: &[u8]) -> Result<Vec<Value>, String> {
     match p.first() {
         Some(&id) if id == recipe.id => {}
-        Some(&id) => return Err(format!("data package for recipe {id}, expected {}", recipe.id)),
+        Some(&id) => {
+            return Err(format!(
+                "data package for recipe {id}, expected {}",
+                recipe.id
+            ))
+        }
         None => return Err("empty data package".into()),
     }
     proto::decode_values(&recipe.types, &p[1..]).ok_or_else(|| {

@@ -268,10 +268,18 @@ impl Value {
             Value::U64(v) => out.extend_from_slice(&v.to_be_bytes()),
             Value::I32(v) => out.extend_from_slice(&v.to_be_bytes()),
             Value::F64(v) => out.extend_from_slice(&v.to_be_bytes()),
-            Value::V3(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
-            Value::V6(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
-            Value::V6I(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
-            Value::V6U(v) => v.iter().for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
+            Value::V3(v) => v
+                .iter()
+                .for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
+            Value::V6(v) => v
+                .iter()
+                .for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
+            Value::V6I(v) => v
+                .iter()
+                .for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
+            Value::V6U(v) => v
+                .iter()
+                .for_each(|x| out.extend_from_slice(&x.to_be_bytes())),
         }
     }
 
@@ -341,45 +349,108 @@ pub fn variable_type(name: &str) -> Option<VarType> {
         if reg(&format!("{dir}_bit_register_"), 127) {
             return Some(Bool);
         }
-        if name == format!("{dir}_bit_registers0_to_31") || name == format!("{dir}_bit_registers32_to_63") {
+        if name == format!("{dir}_bit_registers0_to_31")
+            || name == format!("{dir}_bit_registers32_to_63")
+        {
             return Some(Uint32);
         }
     }
     Some(match name {
-        "timestamp" | "actual_execution_time" | "target_execution_time" | "speed_scaling"
-        | "target_speed_fraction" | "actual_momentum" | "actual_main_voltage"
-        | "actual_robot_voltage" | "actual_robot_current" | "standard_analog_input0"
-        | "standard_analog_input1" | "standard_analog_output0" | "standard_analog_output1"
-        | "io_current" | "tool_analog_input0" | "tool_analog_input1" | "tool_output_current"
-        | "tool_temperature" | "tcp_force_scalar" | "payload" | "speed_slider_fraction"
-        | "standard_analog_output_0" | "standard_analog_output_1"
-        | "actual_robot_energy_consumed" | "actual_robot_braking_energy_dissipated"
-        | "euromap67_24V_voltage" | "euromap67_24V_current"
-        | "joint_position_deviation_ratio" | "collision_detection_ratio" => Double,
-        "target_q" | "target_qd" | "target_qdd" | "target_current" | "target_moment"
-        | "actual_q" | "actual_qd" | "actual_current" | "actual_current_window"
-        | "actual_current_as_torque" | "joint_control_output" | "actual_TCP_pose"
-        | "actual_TCP_speed" | "actual_TCP_force" | "target_TCP_pose" | "target_TCP_speed"
-        | "tcp_offset" | "joint_temperatures" | "actual_joint_voltage" | "ft_raw_wrench"
-        | "payload_inertia" | "external_force_torque" | "actual_TCP_acceleration"
-        | "target_TCP_acceleration" | "wrench_calc_from_currents" | "target_base_acceleration"
+        "timestamp"
+        | "actual_execution_time"
+        | "target_execution_time"
+        | "speed_scaling"
+        | "target_speed_fraction"
+        | "actual_momentum"
+        | "actual_main_voltage"
+        | "actual_robot_voltage"
+        | "actual_robot_current"
+        | "standard_analog_input0"
+        | "standard_analog_input1"
+        | "standard_analog_output0"
+        | "standard_analog_output1"
+        | "io_current"
+        | "tool_analog_input0"
+        | "tool_analog_input1"
+        | "tool_output_current"
+        | "tool_temperature"
+        | "tcp_force_scalar"
+        | "payload"
+        | "speed_slider_fraction"
+        | "standard_analog_output_0"
+        | "standard_analog_output_1"
+        | "actual_robot_energy_consumed"
+        | "actual_robot_braking_energy_dissipated"
+        | "euromap67_24V_voltage"
+        | "euromap67_24V_current"
+        | "joint_position_deviation_ratio"
+        | "collision_detection_ratio" => Double,
+        "target_q"
+        | "target_qd"
+        | "target_qdd"
+        | "target_current"
+        | "target_moment"
+        | "actual_q"
+        | "actual_qd"
+        | "actual_current"
+        | "actual_current_window"
+        | "actual_current_as_torque"
+        | "joint_control_output"
+        | "actual_TCP_pose"
+        | "actual_TCP_speed"
+        | "actual_TCP_force"
+        | "target_TCP_pose"
+        | "target_TCP_speed"
+        | "tcp_offset"
+        | "joint_temperatures"
+        | "actual_joint_voltage"
+        | "ft_raw_wrench"
+        | "payload_inertia"
+        | "external_force_torque"
+        | "actual_TCP_acceleration"
+        | "target_TCP_acceleration"
+        | "wrench_calc_from_currents"
+        | "target_base_acceleration"
         | "target_base_wrench" => Vector6d,
-        "actual_tool_accelerometer" | "elbow_position" | "elbow_velocity" | "payload_cog"
+        "actual_tool_accelerometer"
+        | "elbow_position"
+        | "elbow_velocity"
+        | "payload_cog"
         | "target_gravity" => Vector3d,
-        "actual_digital_input_bits" | "actual_digital_output_bits"
-        | "actual_configurable_digital_input_bits" | "actual_configurable_digital_output_bits"
+        "actual_digital_input_bits"
+        | "actual_digital_output_bits"
+        | "actual_configurable_digital_input_bits"
+        | "actual_configurable_digital_output_bits"
         | "control_step" => Uint64,
-        "robot_mode" | "safety_mode" | "safety_status" | "tool_output_voltage" | "encoder0_raw"
-        | "encoder1_raw" | "time_scale_source" => Int32,
-        "runtime_state" | "robot_status_bits" | "safety_status_bits" | "analog_io_types"
-        | "tool_mode" | "tool_analog_input_types" | "speed_slider_mask"
-        | "euromap67_input_bits" | "euromap67_output_bits" | "script_control_line" => Uint32,
+        "robot_mode"
+        | "safety_mode"
+        | "safety_status"
+        | "tool_output_voltage"
+        | "encoder0_raw"
+        | "encoder1_raw"
+        | "time_scale_source" => Int32,
+        "runtime_state"
+        | "robot_status_bits"
+        | "safety_status_bits"
+        | "analog_io_types"
+        | "tool_mode"
+        | "tool_analog_input_types"
+        | "speed_slider_mask"
+        | "euromap67_input_bits"
+        | "euromap67_output_bits"
+        | "script_control_line" => Uint32,
         "joint_mode" => Vector6Int32,
-        "tool_output_mode" | "tool_digital_output0_mode" | "tool_digital_output1_mode"
-        | "standard_digital_output_mask" | "standard_digital_output"
-        | "configurable_digital_output_mask" | "configurable_digital_output"
-        | "standard_analog_output_mask" | "standard_analog_output_type"
-        | "tool_digital_output_mask" | "tool_digital_output" => Uint8,
+        "tool_output_mode"
+        | "tool_digital_output0_mode"
+        | "tool_digital_output1_mode"
+        | "standard_digital_output_mask"
+        | "standard_digital_output"
+        | "configurable_digital_output_mask"
+        | "configurable_digital_output"
+        | "standard_analog_output_mask"
+        | "standard_analog_output_type"
+        | "tool_digital_output_mask"
+        | "tool_digital_output" => Uint8,
         _ => return None,
     })
 }
@@ -399,7 +470,10 @@ pub fn is_input(name: &str) -> bool {
 pub fn write_package<W: Write>(w: &mut W, ty: u8, payload: &[u8]) -> io::Result<()> {
     let size = payload.len() + 3;
     if size > MAX_PACKAGE {
-        return Err(io::Error::new(io::ErrorKind::InvalidInput, "RTDE package too large"));
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "RTDE package too large",
+        ));
     }
     let mut buf = Vec::with_capacity(size);
     buf.extend_from_slice(&(size as u16).to_be_bytes());
@@ -476,7 +550,10 @@ mod tests {
     fn table_types() {
         assert_eq!(variable_type("actual_TCP_pose"), Some(VarType::Vector6d));
         assert_eq!(variable_type("runtime_state"), Some(VarType::Uint32));
-        assert_eq!(variable_type("input_double_register_24"), Some(VarType::Double));
+        assert_eq!(
+            variable_type("input_double_register_24"),
+            Some(VarType::Double)
+        );
         assert_eq!(variable_type("input_int_register_24"), Some(VarType::Int32));
         assert_eq!(variable_type("input_int_register_48"), None);
         assert_eq!(variable_type("no_such_thing"), None);
@@ -490,6 +567,9 @@ mod tests {
         let (t, p) = read_package(&mut &buf[..]).unwrap();
         assert_eq!((t, p), (86, vec![0, 2]));
         let msg = encode_text_message("hello", "src", 3);
-        assert_eq!(decode_text_message(&msg).unwrap(), ("hello".into(), "src".into(), 3));
+        assert_eq!(
+            decode_text_message(&msg).unwrap(),
+            ("hello".into(), "src".into(), 3)
+        );
     }
 }

@@ -95,7 +95,9 @@ impl Sim {
                 if let Some(v) = self.registers.get(name) {
                     return *v;
                 }
-                proto::variable_type(name).map(|t| t.zero()).unwrap_or(Value::U8(0))
+                proto::variable_type(name)
+                    .map(|t| t.zero())
+                    .unwrap_or(Value::U8(0))
             }
         }
     }
@@ -305,14 +307,16 @@ impl UrEmulator {
         rl.set_nonblocking(true)?;
         {
             let (sim, stop, down) = (sim.clone(), stop.clone(), link_down.clone());
-            threads.push(std::thread::spawn(move || accept_loop(rl, stop.clone(), move |s| {
-                let (sim, stop, down) = (sim.clone(), stop.clone(), down.clone());
-                if down.load(Ordering::SeqCst) {
-                    let _ = s.shutdown(Shutdown::Both);
-                    return;
-                }
-                std::thread::spawn(move || rtde_connection(s, sim, stop, down));
-            })));
+            threads.push(std::thread::spawn(move || {
+                accept_loop(rl, stop.clone(), move |s| {
+                    let (sim, stop, down) = (sim.clone(), stop.clone(), down.clone());
+                    if down.load(Ordering::SeqCst) {
+                        let _ = s.shutdown(Shutdown::Both);
+                        return;
+                    }
+                    std::thread::spawn(move || rtde_connection(s, sim, stop, down));
+                })
+            }));
         }
         let dashboard = match dashboard_port {
             Some(p) => {
@@ -320,10 +324,12 @@ impl UrEmulator {
                 let a = l.local_addr()?;
                 l.set_nonblocking(true)?;
                 let (sim, stop) = (sim.clone(), stop.clone());
-                threads.push(std::thread::spawn(move || accept_loop(l, stop.clone(), move |s| {
-                    let sim = sim.clone();
-                    std::thread::spawn(move || dashboard_connection(s, sim));
-                })));
+                threads.push(std::thread::spawn(move || {
+                    accept_loop(l, stop.clone(), move |s| {
+                        let sim = sim.clone();
+                        std::thread::spawn(move || dashboard_connection(s, sim));
+                    })
+                }));
                 Some(a)
             }
             None => None,
@@ -334,10 +340,12 @@ impl UrEmulator {
                 let a = l.local_addr()?;
                 l.set_nonblocking(true)?;
                 let (sim, stop) = (sim.clone(), stop.clone());
-                threads.push(std::thread::spawn(move || accept_loop(l, stop.clone(), move |s| {
-                    let sim = sim.clone();
-                    std::thread::spawn(move || script_connection(s, sim));
-                })));
+                threads.push(std::thread::spawn(move || {
+                    accept_loop(l, stop.clone(), move |s| {
+                        let sim = sim.clone();
+                        std::thread::spawn(move || script_connection(s, sim));
+                    })
+                }));
                 Some(a)
             }
             None => None,
@@ -373,7 +381,10 @@ impl UrEmulator {
 
     /// What the robot saw so far.
     pub fn record(&self) -> RobotRecord {
-        self.sim.lock().map(|s| s.record.clone()).unwrap_or_default()
+        self.sim
+            .lock()
+            .map(|s| s.record.clone())
+            .unwrap_or_default()
     }
 
     /// Current tool z [m].
@@ -529,9 +540,7 @@ fn rtde_connection(
                                 .unwrap_or_else(|| "NOT_FOUND".into())
                         })
                         .collect();
-                    let ok = types.iter().all(|t| t != "NOT_FOUND")
-                        && freq > 0.0
-                        && freq <= 500.0;
+                    let ok = types.iter().all(|t| t != "NOT_FOUND") && freq > 0.0 && freq <= 500.0;
                     let id = if ok { outputs.len() as u8 + 1 } else { 0 };
                     if ok {
                         outputs.push(OutRecipe {
@@ -718,7 +727,11 @@ fn output_loop(
                 }
             }
         }
-        let wake = next.iter().min().copied().unwrap_or(now + Duration::from_millis(2));
+        let wake = next
+            .iter()
+            .min()
+            .copied()
+            .unwrap_or(now + Duration::from_millis(2));
         let d = wake.saturating_duration_since(Instant::now());
         std::thread::sleep(d.min(Duration::from_millis(2)));
     }
@@ -729,8 +742,7 @@ fn dashboard_connection(s: TcpStream, sim: Arc<Mutex<Sim>>) {
         Ok(w) => w,
         Err(_) => return,
     };
-    if w
-        .write_all(b"Connected: Universal Robots Dashboard Server\n")
+    if w.write_all(b"Connected: Universal Robots Dashboard Server\n")
         .is_err()
     {
         return;
