@@ -108,8 +108,16 @@ impl FrameSource for Replay {
 pub type InputProbe = Arc<dyn Fn() -> Option<(f64, f64)> + Send + Sync>;
 
 /// An emulated camera: a model plant under the devices' inputs, imaged as a dark filled
-/// ellipse (with blur and noise) on a light background.
+/// ellipse (with blur and noise) on a light background. Frames are rendered on the camera's
+/// own thread and delivered through a queue, as a real camera's driver would.
 pub struct Emulated {
+    rx: std::sync::mpsc::Receiver<Result<Frame, String>>,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    handle: Option<std::thread::JoinHandle<()>>,
+    desc: String,
+}
+
+struct Renderer {
     plant: Plant,
     probe: InputProbe,
     fps: f64,
@@ -118,59 +126,13 @@ pub struct Emulated {
     mm_per_px: f64,
     noise: f64,
     t0: Instant,
-    n: u64,
-    /// Stop delivering frames after this time (a camera that dies) [s].
-    pub die_after_s: Option<f64>,
+    die_after_s: Option<f64>,
     last_inputs: (f64, f64),
 }
 
-impl Emulated {
-    /// A camera at `fps` whose swarm starts at equilibrium at `start` (z_m [mm], f [Hz]).
-    #[allow(clippy::too_many_arguments)]
-    pub fn new(
-        model: Model,
-        start: (f64, f64),
-        probe: InputProbe,
-        fps: f64,
-        width: usize,
-        height: usize,
-        mm_per_px: f64,
-        noise: f64,
-        t0: Instant,
-    ) -> Emulated {
-        let plant = Plant::new(model, start.0 * 1e-3, magswarm_model::hz_to_rad_s(start.1));
-        Emulated {
-            plant,
-            probe,
-            fps,
-            width,
-            height,
-            mm_per_px,
-            noise,
-            t0,
-            n: 0,
-            die_after_s: None,
-            last_inputs: start,
-        }
-    }
-}
-
-impl FrameSource for Emulated {
-    fn next_frame(&mut self, timeout: Duration) -> Result<Option<Frame>, CameraError> {
-        let t = self.n as f64 / self.fps;
-        if self.die_after_s.is_some_and(|d| t >= d) {
-            std::thread::sleep(timeout);
-            return Ok(None);
-        }
-        let due = self.t0 + Duration::from_secs_f64(t);
-        let now = Instant::now();
-        if due > now + timeout {
-            std::thread::sleep(timeout);
-            return Ok(None);
-        }
-        if due > now {
-            std::thread::sleep(due - now);
-        }
+impl Renderer {
+    fn frame(&mut self, n: u64) -> Result<Frame, String> {
+        let t = n as f64 / self.fps;
         // Advance the swarm to t under the inputs in force, then image it.
         let (z, f) = (self.probe)().unwrap_or(self.last_inputs);
         let (z, f) = (z.clamp(3.5, 23.5), f.clamp(1.0, 10.0));
@@ -181,7 +143,7 @@ impl FrameSource for Emulated {
                 .set_inputs(z * 1e-3, magswarm_model::hz_to_rad_s(f));
             self.plant
                 .step(dt)
-                .map_err(|e| CameraError::Failed(format!("emulated swarm: {e}")))?;
+                .map_err(|e| format!("emulated swarm: {e}"))?;
         }
         let r = self.plant.state();
         let spec = EllipseSpec {
@@ -195,21 +157,113 @@ impl FrameSource for Emulated {
             blur_sigma_px: 1.0,
             noise_sigma: self.noise,
         };
-        let image = ellipse_frame(self.width, self.height, &spec, self.n);
-        self.n += 1;
-        Ok(Some(Frame {
+        let image = ellipse_frame(self.width, self.height, &spec, n);
+        Ok(Frame {
             t_s: t,
             arrived: Instant::now(),
             image,
-            name: format!("frame_{:06}.png", self.n - 1),
-        }))
+            name: format!("frame_{n:06}.png"),
+        })
+    }
+}
+
+impl Emulated {
+    /// A camera at `fps` whose swarm starts at equilibrium at `start` (z_m [mm], f [Hz]);
+    /// `die_after_s`: stop delivering frames after that camera time (a camera that dies).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        model: Model,
+        start: (f64, f64),
+        probe: InputProbe,
+        fps: f64,
+        width: usize,
+        height: usize,
+        mm_per_px: f64,
+        noise: f64,
+        t0: Instant,
+        die_after_s: Option<f64>,
+    ) -> Emulated {
+        let plant = Plant::new(model, start.0 * 1e-3, magswarm_model::hz_to_rad_s(start.1));
+        let mut r = Renderer {
+            plant,
+            probe,
+            fps,
+            width,
+            height,
+            mm_per_px,
+            noise,
+            t0,
+            die_after_s,
+            last_inputs: start,
+        };
+        let desc = format!(
+            "emulated camera {width}x{height} at {fps} fps, {mm_per_px} mm/px (virtual swarm of the model)"
+        );
+        let (tx, rx) = std::sync::mpsc::sync_channel(4);
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let st = stop.clone();
+        let handle = std::thread::Builder::new()
+            .name("emulated-camera".into())
+            .spawn(move || {
+                let mut n = 0u64;
+                while !st.load(std::sync::atomic::Ordering::SeqCst) {
+                    let t = n as f64 / r.fps;
+                    if r.die_after_s.is_some_and(|d| t >= d) {
+                        std::thread::sleep(Duration::from_millis(10));
+                        continue;
+                    }
+                    let due = r.t0 + Duration::from_secs_f64(t);
+                    let now = Instant::now();
+                    if due > now {
+                        std::thread::sleep((due - now).min(Duration::from_millis(20)));
+                        continue;
+                    }
+                    let f = r.frame(n);
+                    n += 1;
+                    let failed = f.is_err();
+                    // A full queue drops the frame (the consumer is late), like a camera.
+                    let _ = tx.try_send(f);
+                    if failed {
+                        return;
+                    }
+                }
+            })
+            .expect("spawn the emulated camera");
+        Emulated {
+            rx,
+            stop,
+            handle: Some(handle),
+            desc,
+        }
+    }
+}
+
+impl Drop for Emulated {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::SeqCst);
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+impl FrameSource for Emulated {
+    fn next_frame(&mut self, timeout: Duration) -> Result<Option<Frame>, CameraError> {
+        match self.rx.recv_timeout(timeout) {
+            Ok(Ok(mut f)) => {
+                f.arrived = Instant::now();
+                Ok(Some(f))
+            }
+            Ok(Err(e)) => Err(CameraError::Failed(e)),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => Ok(None),
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                Err(CameraError::Failed("the emulated camera stopped".into()))
+            }
+        }
     }
 
     fn describe(&self) -> String {
-        format!(
-            "emulated camera {}x{} at {} fps, {} mm/px (virtual swarm of the model)",
-            self.width, self.height, self.fps, self.mm_per_px
-        )
+        self.desc.clone()
     }
 }
 

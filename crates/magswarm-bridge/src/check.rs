@@ -156,6 +156,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
                 c.mm_per_px,
                 c.noise,
                 t0,
+                None,
             )),
             k => return Err(format!("camera kind {k:?} is not available in this build")),
         };

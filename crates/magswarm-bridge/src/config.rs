@@ -198,6 +198,9 @@ pub struct EmulatorCfg {
     /// How: "status" | "checksum" | "silent".
     #[serde(default)]
     pub stepper_fault: Option<String>,
+    /// The emulated camera (inside `run`) stops delivering frames after this time [s].
+    #[serde(default)]
+    pub camera_stops_after_s: Option<f64>,
     /// Keys not known to the bridge.
     #[serde(flatten)]
     pub extra: Extra,

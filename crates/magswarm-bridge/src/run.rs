@@ -22,16 +22,31 @@ use crate::rtde::proto::{runtime_state, safety_mode};
 use crate::rtde::{RobotState, UrLink};
 use crate::safety::{Envelope, Fault, FaultLatch, Shaper};
 use crate::schedule::Schedule;
-use crate::stepper::{self, Stepper, StepperError};
+use crate::stepper::{self, StepperError, StepperThread};
 use crate::ur::{self, Dashboard, ServoScript};
 
+/// A caller's law: (t [s], measured radii [mm] when the frame is valid) -> (z_m [mm], f [Hz]).
+pub type Law = Arc<std::sync::Mutex<dyn FnMut(f64, Option<[f64; 2]>) -> (f64, f64) + Send>>;
+
 /// What to run.
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub enum Mode {
     /// A plan of inputs.
     Plan(Schedule),
     /// The PID on setpoints.
     Targets(Schedule),
+    /// Any other law (tests, other controllers), run for `--duration`.
+    Law(Law),
+}
+
+impl std::fmt::Debug for Mode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Mode::Plan(s) => write!(f, "Plan({} rows)", s.rows.len()),
+            Mode::Targets(s) => write!(f, "Targets({} rows)", s.rows.len()),
+            Mode::Law(_) => write!(f, "Law"),
+        }
+    }
 }
 
 /// A run's options.
@@ -190,6 +205,7 @@ pub fn run(
         (None, Mode::Plan(s)) | (None, Mode::Targets(s)) => s
             .default_duration()
             .ok_or_else(|| anyhow::anyhow!("the schedule has a single row: give --duration"))?,
+        (None, Mode::Law(_)) => anyhow::bail!("a law needs a duration"),
     };
     if !(duration.is_finite() && duration > 0.0) {
         anyhow::bail!("--duration {duration} must be a positive number of seconds");
@@ -211,12 +227,12 @@ pub fn run(
             };
             Some(Controller::new(ctrl_model.clone(), pid).map_err(|e| anyhow::anyhow!("{e}"))?)
         }
-        Mode::Plan(_) => None,
+        Mode::Plan(_) | Mode::Law(_) => None,
     };
     let start = match (&cfg.control.start, &opts.mode) {
         (Some(s), _) => (s[0], s[1]),
         (None, Mode::Plan(s)) => s.at(0.0),
-        (None, Mode::Targets(_)) => (8.5, 4.0),
+        (None, Mode::Targets(_)) | (None, Mode::Law(_)) => (8.5, 4.0),
     };
     let start = (
         start.0.clamp(env.z_mm[0], env.z_mm[1]),
@@ -264,7 +280,7 @@ pub fn run(
 
     // Devices.
     let mut robot: Option<Robot> = None;
-    let mut stepper_dev: Option<Box<dyn Stepper>> = None;
+    let mut stepper_dev: Option<StepperThread> = None;
     if !opts.dry_run {
         let mut tm = stepper::open_serial(
             &cfg.stepper.device,
@@ -279,8 +295,12 @@ pub fn run(
             tm.set_max_acceleration(a)
                 .map_err(|e| anyhow::anyhow!("[stepper] setting max_acceleration: {e}"))?;
         }
+        use crate::stepper::Stepper as _;
         tm.stop().map_err(|e| anyhow::anyhow!("[stepper] {e}"))?;
-        stepper_dev = Some(Box::new(tm));
+        stepper_dev = Some(StepperThread::spawn(
+            Box::new(tm),
+            Duration::from_millis(100),
+        ));
 
         let r = &cfg.robot;
         let link = UrLink::connect(&r.host, r.rtde_port, r.frequency_hz, Duration::from_secs(2))
@@ -366,7 +386,7 @@ pub fn run(
         }
         "emulated" => {
             let m = load_model(cfg, &cfg.camera.model, "[camera]")?;
-            Box::new(camera::Emulated::new(
+            let e = camera::Emulated::new(
                 m,
                 start,
                 probe,
@@ -376,7 +396,9 @@ pub fn run(
                 cfg.camera.mm_per_px,
                 cfg.camera.noise,
                 t0,
-            ))
+                cfg.emulator.camera_stops_after_s,
+            );
+            Box::new(e)
         }
         k => anyhow::bail!(
             "[camera] kind {k:?}: this build has no Aravis support (build magswarm-vision with the `aravis` feature)"
@@ -404,7 +426,7 @@ pub fn run(
     // Send a command through the safety core to the actuators.
     let send = |req: (f64, f64),
                 robot: &mut Option<Robot>,
-                stepper_dev: &mut Option<Box<dyn Stepper>>,
+                stepper_dev: &mut Option<StepperThread>,
                 shaper: &mut Shaper,
                 last_cmd_at: &mut Instant|
      -> Result<(f64, f64), Fault> {
@@ -416,7 +438,7 @@ pub fn run(
             rb.command(c.z_mm)?;
         }
         if let Some(st) = stepper_dev.as_mut() {
-            st.rotate_hz(c.f_hz).map_err(stepper_fault)?;
+            st.rotate_hz(c.f_hz);
         }
         Ok((c.z_mm, c.f_hz))
     };
@@ -432,6 +454,9 @@ pub fn run(
         )?;
         loop {
             signals.check()?;
+            if let Some(e) = stepper_dev.as_ref().and_then(|s| s.take_error()) {
+                return Err(stepper_fault(e));
+            }
             if let Some(rb) = &robot {
                 let s = rb.check()?;
                 last_z_meas = rb.z_mm(&s);
@@ -470,6 +495,10 @@ pub fn run(
             // The request.
             let req = match &opts.mode {
                 Mode::Plan(s) => s.at(t),
+                Mode::Law(l) => {
+                    let mut l = l.lock().unwrap_or_else(|p| p.into_inner());
+                    (*l)(t, valid.then_some([m.r1_mm, m.r2_mm]))
+                }
                 Mode::Targets(s) => {
                     let r = s.at(t);
                     refs = Some(r);
@@ -542,7 +571,7 @@ pub fn run(
     };
     // Stop: stepper first (fast), then hold the robot.
     if let Some(st) = stepper_dev.as_mut() {
-        let _ = st.stop();
+        st.stop();
     }
     if let Some(rb) = robot.as_mut() {
         if fault.is_some() {

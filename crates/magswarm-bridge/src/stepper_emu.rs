@@ -208,6 +208,13 @@ fn handle(f: &[u8; 9], cfg: &StepperSimConfig, state: &Arc<Mutex<State>>) -> Opt
         _ => false,
     };
     if faulty {
+        // The module still sees the instruction; its reply is what goes wrong.
+        s.received.push(Received {
+            at: Instant::now(),
+            instruction: ins,
+            typ,
+            value,
+        });
         match cfg.fault {
             StepperFault::Silent => return None,
             StepperFault::Status => {

@@ -531,6 +531,8 @@ fn rtde_connection(
                     let names: Vec<String> = String::from_utf8_lossy(&p[8..])
                         .split(',')
                         .map(|x| x.trim().to_string())
+                        // ur_rtde ends the list with a comma; the controller ignores it.
+                        .filter(|x| !x.is_empty())
                         .collect();
                     let types: Vec<String> = names
                         .iter()
@@ -559,6 +561,8 @@ fn rtde_connection(
                     let names: Vec<String> = String::from_utf8_lossy(&p)
                         .split(',')
                         .map(|x| x.trim().to_string())
+                        // ur_rtde ends the list with a comma; the controller ignores it.
+                        .filter(|x| !x.is_empty())
                         .collect();
                     let mut types = Vec::new();
                     let mut reply = Vec::new();
