@@ -66,7 +66,8 @@ pub struct EmulatorConfig {
     pub particle_radius_px: f64,
     pub blur_sigma_px: f64,
     pub noise_sigma: f64,
-    /// Small dark specks at fixed random places (debris on the reservoir floor).
+    /// Small dark specks (radius 2 to 5 px) at fixed random places (debris on the reservoir
+    /// floor), away from a centred swarm.
     pub debris: usize,
     pub seed: u64,
 }
@@ -138,7 +139,7 @@ impl SwarmRenderer {
                     rng.random_range(0.88..0.97)
                 } * cfg.width as f64;
                 let y = rng.random_range(0.05..0.95) * cfg.height as f64;
-                (x, y, rng.random_range(2.0..6.0))
+                (x, y, rng.random_range(2.0..5.0))
             })
             .collect();
         SwarmRenderer {

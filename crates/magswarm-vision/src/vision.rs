@@ -95,7 +95,8 @@ pub struct VisionConfig {
     pub invert: bool,
     /// `[x, y, w, h]` in pixels; the whole frame when absent.
     pub roi: Option<Roi>,
-    /// The largest component must have at least this many pixels to count as the swarm.
+    /// The largest component must have at least this many pixels to count as the swarm
+    /// (default 200: a disc of 8 px radius; specks of debris are smaller).
     pub min_area_px: u64,
     /// Otsu only: the two classes' mean gray levels must differ by at least this much, else the
     /// frame has no swarm (an empty frame's noise split in two).
@@ -108,7 +109,7 @@ impl Default for VisionConfig {
             threshold: Threshold::Otsu,
             invert: false,
             roi: None,
-            min_area_px: 50,
+            min_area_px: 200,
             min_contrast: 24,
         }
     }
