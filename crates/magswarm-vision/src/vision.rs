@@ -95,7 +95,8 @@ pub struct VisionConfig {
     pub invert: bool,
     /// `[x, y, w, h]` in pixels; the whole frame when absent.
     pub roi: Option<Roi>,
-    /// The largest component must have at least this many pixels to count as the swarm.
+    /// The largest component must have at least this many pixels to count as the swarm
+    /// (default 200: a disc of 8 px radius; specks of debris are smaller).
     pub min_area_px: u64,
     /// Otsu only: the two classes' mean gray levels must differ by at least this much, else the
     /// frame has no swarm (an empty frame's noise split in two).
@@ -108,7 +109,7 @@ impl Default for VisionConfig {
             threshold: Threshold::Otsu,
             invert: false,
             roi: None,
-            min_area_px: 50,
+            min_area_px: 200,
             min_contrast: 24,
         }
     }
@@ -274,7 +275,7 @@ pub struct Vision {
 }
 
 /// Measures one frame with fresh buffers (see [`Vision::measure`] to reuse them).
-pub fn measure(img: GrayView<'_>, cfg: &VisionConfig) -> Measurement {
+pub fn measure_frame(img: GrayView<'_>, cfg: &VisionConfig) -> Measurement {
     Vision::default().measure(img, cfg)
 }
 
@@ -628,6 +629,8 @@ pub fn histogram(img: GrayView<'_>, roi: Roi) -> [u32; 256] {
 
 /// Otsu's threshold: the level `T` splitting the histogram into `<= T` and `> T` with the largest
 /// between-class variance (the middle of a plateau of equal maxima), and the two class means.
+/// At the maximum the level lies midway between the class means (the stationarity condition),
+/// which is where a blurred edge crosses its true position.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Otsu {
     pub level: u8,
@@ -793,7 +796,7 @@ mod tests {
                 img.row_mut(y)[x] = 30;
             }
         }
-        let m = measure(img.view(), &VisionConfig::default());
+        let m = measure_frame(img.view(), &VisionConfig::default());
         assert!(m.valid(), "{:?}", m.invalid);
         assert_eq!(m.area_px, 200);
         assert!((m.cx_px - 24.5).abs() < 1e-12 && (m.cy_px - 16.5).abs() < 1e-12);
@@ -814,7 +817,7 @@ mod tests {
             min_area_px: 1,
             ..Default::default()
         };
-        let m = measure(img.view(), &cfg);
+        let m = measure_frame(img.view(), &cfg);
         assert_eq!(m.components, 1);
         assert_eq!(m.area_px, 8);
         assert!((m.angle_deg - 45.0).abs() < 1e-9, "{}", m.angle_deg);
