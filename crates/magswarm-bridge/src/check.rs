@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use crate::camera::{self, FrameSource, Measurer};
+use crate::camera::{self, Measurer};
 use crate::config::RigConfig;
 use crate::rtde::proto::{robot_mode, runtime_state, safety_mode};
 use crate::rtde::RtdeClient;
@@ -141,12 +141,14 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
     let c = &cfg.camera;
     let cam = (|| -> Result<String, String> {
         let t0 = Instant::now();
-        let mut src: Box<dyn FrameSource> = match c.kind.as_str() {
+        let src: Box<dyn camera::Camera> = match c.kind.as_str() {
             "replay" => Box::new(
-                camera::Replay::open(&cfg.resolve(c.dir.as_ref().expect("validated")), t0)
-                    .map_err(|e| e.to_string())?,
+                magswarm_vision::replay::ReplayCamera::open(
+                    &cfg.resolve(c.dir.as_ref().expect("validated")),
+                )
+                .map_err(|e| e.to_string())?,
             ),
-            "emulated" => Box::new(camera::Emulated::new(
+            "emulated" => camera::emulated(
                 magswarm_model::Model::paper(),
                 (8.5, 4.0),
                 std::sync::Arc::new(|| None),
@@ -155,16 +157,16 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
                 c.height as usize,
                 c.mm_per_px,
                 c.noise,
-                t0,
-                None,
-            )),
+            ),
             k => return Err(format!("camera kind {k:?} is not available in this build")),
         };
-        let desc = src.describe();
-        let deadline = Instant::now() + Duration::from_secs_f64(c.timeout_s.max(1.0));
+        let mut src = camera::Threaded::spawn(src, t0, None).map_err(|e| e.to_string())?;
+        let desc = src.describe().to_string();
+        let wait = c.timeout_s.max(1.0);
+        let deadline = Instant::now() + Duration::from_secs_f64(wait);
         loop {
             match src
-                .next_frame(Duration::from_millis(50))
+                .next(Duration::from_millis(50))
                 .map_err(|e| e.to_string())?
             {
                 Some(f) => {
@@ -175,17 +177,14 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
                         Some(w) => format!("no valid swarm: {w}"),
                     };
                     return Ok(format!(
-                        "{desc}: first frame {}x{} ({}): {what}",
+                        "{desc}: first frame {}x{} (t_s {}): {what}",
                         f.image.width(),
                         f.image.height(),
-                        f.name
+                        f.t_s
                     ));
                 }
                 None if Instant::now() > deadline => {
-                    return Err(format!(
-                        "{desc}: no frame within {:.1} s",
-                        c.timeout_s.max(1.0)
-                    ))
+                    return Err(format!("{desc}: no frame within {wait:.1} s"))
                 }
                 None => {}
             }

@@ -16,7 +16,7 @@ use magswarm_control::{Controller, PidConfig};
 use magswarm_log::{Layout, LogRow, LogWriter};
 use magswarm_model::{Model, Plant};
 
-use crate::camera::{self, CameraError, FrameSource, Measurer};
+use crate::camera::{self, CameraError, Measurer, Threaded};
 use crate::config::RigConfig;
 use crate::rtde::proto::{runtime_state, safety_mode};
 use crate::rtde::{RobotState, UrLink};
@@ -379,14 +379,17 @@ pub fn run(
     // Camera.
     let t0 = Instant::now();
     let (probe_cell, probe) = camera::command_probe();
-    let mut cam: Box<dyn FrameSource> = match cfg.camera.kind.as_str() {
+    let source: Box<dyn magswarm_vision::camera::Camera> = match cfg.camera.kind.as_str() {
         "replay" => {
             let dir = cfg.resolve(cfg.camera.dir.as_ref().expect("validated"));
-            Box::new(camera::Replay::open(&dir, t0).map_err(|e| anyhow::anyhow!("[camera] {e}"))?)
+            Box::new(
+                magswarm_vision::replay::ReplayCamera::open(&dir)
+                    .map_err(|e| anyhow::anyhow!("[camera] {e}"))?,
+            )
         }
         "emulated" => {
             let m = load_model(cfg, &cfg.camera.model, "[camera]")?;
-            let e = camera::Emulated::new(
+            camera::emulated(
                 m,
                 start,
                 probe,
@@ -395,15 +398,14 @@ pub fn run(
                 cfg.camera.height as usize,
                 cfg.camera.mm_per_px,
                 cfg.camera.noise,
-                t0,
-                cfg.emulator.camera_stops_after_s,
-            );
-            Box::new(e)
+            )
         }
         k => anyhow::bail!(
             "[camera] kind {k:?}: this build has no Aravis support (build magswarm-vision with the `aravis` feature)"
         ),
     };
+    let mut cam = Threaded::spawn(source, t0, cfg.emulator.camera_stops_after_s)
+        .map_err(|e| anyhow::anyhow!("[camera] {e}"))?;
 
     let mut shaper = Shaper::new(env, Some(start));
     if let Some(rb) = &robot {
@@ -464,10 +466,16 @@ pub fn run(
             } else {
                 *probe_cell.lock().unwrap() = Some(in_force);
             }
-            let frame = match cam.next_frame(Duration::from_millis(10)) {
+            let frame = match cam.next(Duration::from_millis(10)) {
                 Ok(f) => f,
-                Err(CameraError::Ended) => return Ok(()),
-                Err(CameraError::Failed(w)) => return Err(Fault::Camera(w)),
+                // A replay has delivered all its frames: the run is complete.
+                Err(CameraError::EndOfStream { .. }) => return Ok(()),
+                Err(e) if e.is_transient() => {
+                    eprintln!("magswarm-bridge: warning: {e}");
+                    invalid_frames += 1;
+                    None
+                }
+                Err(e) => return Err(Fault::Camera(e.to_string())),
             };
             let Some(frame) = frame else {
                 let since = last_frame_at.elapsed();
