@@ -220,3 +220,56 @@ impl Measurer {
         }
     }
 }
+
+/// The camera the config describes (`[camera] kind`): replay, emulated (driven by `probe`,
+/// starting at equilibrium at `start`), or Aravis (with the `aravis` feature).
+pub fn from_config(
+    cfg: &crate::config::RigConfig,
+    start: (f64, f64),
+    probe: InputProbe,
+) -> Result<Box<dyn Camera>, String> {
+    let c = &cfg.camera;
+    match c.kind.as_str() {
+        "replay" => {
+            let dir = cfg.resolve(c.dir.as_ref().ok_or("[camera] dir: a replay needs a frame folder")?);
+            Ok(Box::new(
+                magswarm_vision::replay::ReplayCamera::open(&dir)
+                    .map_err(|e| format!("[camera] {e}"))?,
+            ))
+        }
+        "emulated" => {
+            let model = match &c.model {
+                Some(p) => {
+                    let p = cfg.resolve(p);
+                    Model::load(&p).map_err(|e| format!("[camera] model {}: {e}", p.display()))?
+                }
+                None => Model::paper(),
+            };
+            Ok(emulated(
+                model,
+                start,
+                probe,
+                c.fps,
+                c.width as usize,
+                c.height as usize,
+                c.mm_per_px,
+                c.noise,
+            ))
+        }
+        #[cfg(feature = "aravis")]
+        "aravis" => {
+            use magswarm_vision::aravis_camera::{AravisCamera, AravisConfig};
+            let a = AravisConfig {
+                device: c.device.clone(),
+                exposure_us: c.exposure_us,
+                fps: Some(c.fps),
+                region: c.region,
+                buffers: 8,
+            };
+            Ok(Box::new(AravisCamera::open(&a).map_err(|e| format!("[camera] {e}"))?))
+        }
+        k => Err(format!(
+            "[camera] kind {k:?}: not available in this build (\"aravis\" needs `--features aravis` and libaravis-dev)"
+        )),
+    }
+}

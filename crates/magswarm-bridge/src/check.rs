@@ -141,25 +141,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
     let c = &cfg.camera;
     let cam = (|| -> Result<String, String> {
         let t0 = Instant::now();
-        let src: Box<dyn camera::Camera> = match c.kind.as_str() {
-            "replay" => Box::new(
-                magswarm_vision::replay::ReplayCamera::open(
-                    &cfg.resolve(c.dir.as_ref().expect("validated")),
-                )
-                .map_err(|e| e.to_string())?,
-            ),
-            "emulated" => camera::emulated(
-                magswarm_model::Model::paper(),
-                (8.5, 4.0),
-                std::sync::Arc::new(|| None),
-                c.fps,
-                c.width as usize,
-                c.height as usize,
-                c.mm_per_px,
-                c.noise,
-            ),
-            k => return Err(format!("camera kind {k:?} is not available in this build")),
-        };
+        let src = camera::from_config(cfg, (8.5, 4.0), std::sync::Arc::new(|| None))?;
         let mut src = camera::Threaded::spawn(src, t0, None).map_err(|e| e.to_string())?;
         let desc = src.describe().to_string();
         let wait = c.timeout_s.max(1.0);

@@ -128,6 +128,15 @@ pub struct CameraCfg {
     /// Emulated: pixel noise (standard deviation, grey levels).
     #[serde(default = "d_noise")]
     pub noise: f64,
+    /// Aravis: device id, serial number or IP (default: the first camera found).
+    #[serde(default)]
+    pub device: Option<String>,
+    /// Aravis: exposure time [us] (default: the camera's).
+    #[serde(default)]
+    pub exposure_us: Option<f64>,
+    /// Aravis: sensor region `[x, y, w, h]` [px] (default: the full sensor).
+    #[serde(default)]
+    pub region: Option<[i32; 4]>,
     /// Keys not known to the bridge.
     #[serde(flatten)]
     pub extra: Extra,

@@ -199,6 +199,18 @@ pub fn run(
     signals: &Signals,
     latch: &FaultLatch,
 ) -> anyhow::Result<RunReport> {
+    run_with_camera(cfg, opts, signals, latch, None)
+}
+
+/// [`run`] with a camera given by the caller instead of the config's (benches, other
+/// sources).
+pub fn run_with_camera(
+    cfg: &RigConfig,
+    opts: &RunOptions,
+    signals: &Signals,
+    latch: &FaultLatch,
+    camera_override: Option<Box<dyn magswarm_vision::camera::Camera>>,
+) -> anyhow::Result<RunReport> {
     let env = Envelope::from(&cfg.limits);
     let duration = match (opts.duration, &opts.mode) {
         (Some(d), _) => d,
@@ -379,30 +391,9 @@ pub fn run(
     // Camera.
     let t0 = Instant::now();
     let (probe_cell, probe) = camera::command_probe();
-    let source: Box<dyn magswarm_vision::camera::Camera> = match cfg.camera.kind.as_str() {
-        "replay" => {
-            let dir = cfg.resolve(cfg.camera.dir.as_ref().expect("validated"));
-            Box::new(
-                magswarm_vision::replay::ReplayCamera::open(&dir)
-                    .map_err(|e| anyhow::anyhow!("[camera] {e}"))?,
-            )
-        }
-        "emulated" => {
-            let m = load_model(cfg, &cfg.camera.model, "[camera]")?;
-            camera::emulated(
-                m,
-                start,
-                probe,
-                cfg.camera.fps,
-                cfg.camera.width as usize,
-                cfg.camera.height as usize,
-                cfg.camera.mm_per_px,
-                cfg.camera.noise,
-            )
-        }
-        k => anyhow::bail!(
-            "[camera] kind {k:?}: this build has no Aravis support (build magswarm-vision with the `aravis` feature)"
-        ),
+    let source: Box<dyn magswarm_vision::camera::Camera> = match camera_override {
+        Some(c) => c,
+        None => camera::from_config(cfg, start, probe).map_err(|e| anyhow::anyhow!(e))?,
     };
     let mut cam = Threaded::spawn(source, t0, cfg.emulator.camera_stops_after_s)
         .map_err(|e| anyhow::anyhow!("[camera] {e}"))?;
