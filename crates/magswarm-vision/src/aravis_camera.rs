@@ -11,6 +11,17 @@ use aravis::prelude::*;
 use aravis::{AcquisitionMode, Buffer, BufferStatus, PixelFormat, Stream};
 use std::time::{Duration, Instant};
 
+/// The Aravis bindings, for callers that need more of the library (e.g. the fake cameras).
+pub use aravis;
+
+/// Makes Aravis' in-process fake camera (device id `Fake_1`, Mono8 test pattern) visible to
+/// [`AravisCamera::open`]: a camera without hardware, for tests and demos.
+pub fn enable_fake_interface() {
+    // SAFETY: arv_enable_interface takes a NUL-terminated interface name and only flips a flag in
+    // the library's interface table.
+    unsafe { aravis_sys::arv_enable_interface(c"Fake".as_ptr()) }
+}
+
 /// How to open and set up the camera (`[camera]` keys for `kind = "aravis"`).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct AravisConfig {
