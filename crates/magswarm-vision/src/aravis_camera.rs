@@ -100,8 +100,8 @@ impl AravisCamera {
                 .map_err(dev_err("set exposure time"))?;
         }
         if let Some(fps) = cfg.fps {
-            // not every camera has AcquisitionFrameRateEnable; the rate itself must take
-            let _ = camera.set_frame_rate_enable(true);
+            // (arv_camera_set_frame_rate also switches AcquisitionFrameRateEnable on where the
+            // camera has it)
             camera
                 .set_frame_rate(fps)
                 .map_err(dev_err("set frame rate"))?;
