@@ -11,8 +11,22 @@ use aravis::prelude::*;
 use aravis::{AcquisitionMode, Buffer, BufferStatus, PixelFormat, Stream};
 use std::time::{Duration, Instant};
 
-/// How to open and set up the camera (`[camera]` keys for `kind = "aravis"`).
-#[derive(Clone, Debug, PartialEq, Default)]
+/// The Aravis bindings, for callers that need more of the library (e.g. the fake cameras).
+pub use aravis;
+
+/// Makes Aravis' in-process fake camera (device id `Fake_1`, Mono8 test pattern) visible to
+/// [`AravisCamera::open`]: a camera without hardware, for tests and demos.
+pub fn enable_fake_interface() {
+    // SAFETY: arv_enable_interface takes a NUL-terminated interface name and only flips a flag in
+    // the library's interface table.
+    unsafe { aravis_sys::arv_enable_interface(c"Fake".as_ptr()) }
+}
+
+/// How to open and set up the camera (`[camera]` keys for `kind = "aravis"`: `device`,
+/// `exposure_us`, `fps`, `region = [x, y, w, h]`, `buffers`; other keys of the table are left to
+/// the caller).
+#[derive(Clone, Debug, PartialEq, Default, serde::Deserialize)]
+#[serde(default)]
 pub struct AravisConfig {
     /// Aravis device id, serial number or (GigE) IP address; the first camera found when `None`.
     pub device: Option<String>,
@@ -89,8 +103,8 @@ impl AravisCamera {
                 .map_err(dev_err("set exposure time"))?;
         }
         if let Some(fps) = cfg.fps {
-            // not every camera has AcquisitionFrameRateEnable; the rate itself must take
-            let _ = camera.set_frame_rate_enable(true);
+            // (arv_camera_set_frame_rate also switches AcquisitionFrameRateEnable on where the
+            // camera has it)
             camera
                 .set_frame_rate(fps)
                 .map_err(dev_err("set frame rate"))?;
