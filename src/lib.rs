@@ -12,6 +12,7 @@ pub mod control_cli;
 pub mod cosim;
 pub mod identify;
 pub mod log;
+pub mod outputs;
 pub mod packaging;
 pub mod paper;
 pub mod plot;

@@ -32,10 +32,16 @@ fn unpacked_dirs(tmp: &Path) -> Vec<PathBuf> {
 /// Run this test binary's `child` test with `mode`, `TMPDIR` = `tmp`.
 fn spawn_child(mode: &str, tmp: &Path) -> Command {
     let mut c = Command::new(std::env::current_exe().unwrap());
-    c.args(["--exact", "child", "--include-ignored", "--nocapture", "--test-threads=1"])
-        .env("MAGSWARM_LITTER_CHILD", mode)
-        .env("MAGSWARM_FMU", fmu_common::packaged())
-        .env("TMPDIR", tmp);
+    c.args([
+        "--exact",
+        "child",
+        "--include-ignored",
+        "--nocapture",
+        "--test-threads=1",
+    ])
+    .env("MAGSWARM_LITTER_CHILD", mode)
+    .env("MAGSWARM_FMU", fmu_common::packaged())
+    .env("TMPDIR", tmp);
     c
 }
 
@@ -148,7 +154,11 @@ fn hostile_archives_are_refused_naming_the_entry_and_leave_nothing() {
             ],
             "outside the unpacked folder",
         ),
-        ("missing XML", vec![("resources/model.json", b"{}")], "no modelDescription.xml"),
+        (
+            "missing XML",
+            vec![("resources/model.json", b"{}")],
+            "no modelDescription.xml",
+        ),
         (
             "zip bomb",
             vec![
@@ -186,7 +196,10 @@ fn hostile_archives_are_refused_naming_the_entry_and_leave_nothing() {
         let e = Fmu::load(&p).expect_err(what);
         let msg = e.to_string();
         assert!(msg.contains(needle), "{what}: {msg}");
-        assert!(msg.contains(&p.display().to_string()), "{what} names the file: {msg}");
+        assert!(
+            msg.contains(&p.display().to_string()),
+            "{what} names the file: {msg}"
+        );
         assert!(!Path::new("/tmp/abs.txt").exists());
         assert!(!dir.path().join("escaped.txt").exists());
     }

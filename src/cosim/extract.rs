@@ -164,7 +164,9 @@ pub fn unpack(fmu: &Path) -> Result<(Unpacked, String)> {
         has_xml |= name == "modelDescription.xml";
     }
     if !has_xml {
-        return Err(bad("no modelDescription.xml at the top of the archive".into()));
+        return Err(bad(
+            "no modelDescription.xml at the top of the archive".into()
+        ));
     }
     let dir = tempfile::Builder::new()
         .prefix(PREFIX)
@@ -184,15 +186,16 @@ pub fn unpack(fmu: &Path) -> Result<(Unpacked, String)> {
             .by_index(i)
             .map_err(|e| bad(format!("entry {i}: {e}")))?;
         let name = e.name().map(|n| n.into_owned()).unwrap_or_default();
-        let rel = e.enclosed_name().ok_or_else(|| bad(format!("entry {name:?}")))?;
+        let rel = e
+            .enclosed_name()
+            .ok_or_else(|| bad(format!("entry {name:?}")))?;
         let out = unpacked.path().join(rel);
         if e.is_dir() {
             std::fs::create_dir_all(&out).map_err(|err| bad(format!("entry {name:?}: {err}")))?;
             continue;
         }
         if let Some(parent) = out.parent() {
-            std::fs::create_dir_all(parent)
-                .map_err(|err| bad(format!("entry {name:?}: {err}")))?;
+            std::fs::create_dir_all(parent).map_err(|err| bad(format!("entry {name:?}: {err}")))?;
         }
         let declared = e.size();
         let mut f =
@@ -206,7 +209,9 @@ pub fn unpack(fmu: &Path) -> Result<(Unpacked, String)> {
         }
         written += n;
         if written > MAX_UNPACKED_BYTES {
-            return Err(bad(format!("unpacks to more than {MAX_UNPACKED_BYTES} bytes")));
+            return Err(bad(format!(
+                "unpacks to more than {MAX_UNPACKED_BYTES} bytes"
+            )));
         }
         #[cfg(unix)]
         if let Some(mode) = e.unix_mode() {
