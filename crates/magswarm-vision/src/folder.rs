@@ -124,33 +124,42 @@ pub fn read_index(dir: &Path) -> Result<Vec<IndexEntry>, FolderError> {
     Ok(out)
 }
 
-/// Decodes an 8-bit grayscale PNG from memory. Other PNG kinds are refused with the reason
-/// (16-bit, colour, palette): the frame folder format is 8-bit grayscale.
+/// Decodes a PNG frame from memory into 8-bit grayscale. The frame folder format is 8-bit
+/// grayscale; other PNGs a recording tool may have written are converted rather than refused:
+/// 1/2/4-bit gray is expanded, 16-bit keeps its high byte, an alpha channel is dropped, palette and
+/// colour images become their luma (ITU-R BT.601 weights).
 pub fn decode_png(bytes: &[u8]) -> Result<GrayImage, String> {
     let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
-    // expand sub-byte gray (1/2/4 bit) to 8 bit; keep 16-bit and colour visible to refuse them
-    dec.set_transformations(png::Transformations::EXPAND);
+    dec.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
     let mut reader = dec.read_info().map_err(|e| e.to_string())?;
-    let (ct, depth) = reader.output_color_type();
-    if ct != png::ColorType::Grayscale || depth != png::BitDepth::Eight {
-        return Err(format!(
-            "{ct:?} {depth:?}-bit PNG; frames must be 8-bit grayscale"
-        ));
-    }
     let mut buf = vec![0; reader.output_buffer_size()];
     let info = reader.next_frame(&mut buf).map_err(|e| e.to_string())?;
     let (w, h) = (info.width as usize, info.height as usize);
-    let stride = info.line_size;
-    let data = if stride == w {
-        buf.truncate(w * h);
-        buf
-    } else {
-        let mut d = Vec::with_capacity(w * h);
-        for y in 0..h {
-            d.extend_from_slice(&buf[y * stride..y * stride + w]);
-        }
-        d
+    if info.bit_depth != png::BitDepth::Eight {
+        return Err(format!("{:?}-bit samples after expansion", info.bit_depth));
+    }
+    let channels = match info.color_type {
+        png::ColorType::Grayscale => 1,
+        png::ColorType::GrayscaleAlpha => 2,
+        png::ColorType::Rgb => 3,
+        png::ColorType::Rgba => 4,
+        png::ColorType::Indexed => return Err("palette PNG was not expanded".into()),
     };
+    let stride = info.line_size;
+    if stride < w * channels || buf.len() < stride * h.saturating_sub(1) + w * channels {
+        return Err("PNG size does not match its data".into());
+    }
+    let mut data = Vec::with_capacity(w * h);
+    for y in 0..h {
+        let row = &buf[y * stride..y * stride + w * channels];
+        match channels {
+            1 => data.extend_from_slice(row),
+            2 => data.extend(row.chunks_exact(2).map(|p| p[0])),
+            _ => data.extend(row.chunks_exact(channels).map(|p| {
+                ((299 * p[0] as u32 + 587 * p[1] as u32 + 114 * p[2] as u32 + 500) / 1000) as u8
+            })),
+        }
+    }
     GrayImage::from_vec(w, h, data).ok_or_else(|| "PNG size does not match its data".into())
 }
 

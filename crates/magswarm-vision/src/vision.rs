@@ -598,23 +598,23 @@ fn mask64(c: &[u8; 64], t: u8) -> u64 {
     }
 }
 
-/// Histogram of the region of interest (four interleaved tables, so repeated gray levels do not
-/// serialise on one counter).
+/// Histogram of the region of interest. Eight interleaved tables of counters, so that runs of
+/// equal gray levels (a flat background) do not serialise on one counter's load-add-store.
 pub fn histogram(img: GrayView<'_>, roi: Roi) -> [u32; 256] {
-    let mut t = [[0u32; 256]; 4];
+    const K: usize = 8;
+    let mut t = [[0u32; 256]; K];
     for y in roi.y..roi.y + roi.h {
         let row = &img.row(y)[roi.x..roi.x + roi.w];
-        let mut chunks = row.chunks_exact(8);
+        let mut chunks = row.chunks_exact(16);
         for c in chunks.by_ref() {
-            let v = u64::from_le_bytes(c.try_into().unwrap());
-            t[0][(v & 0xff) as usize] += 1;
-            t[1][((v >> 8) & 0xff) as usize] += 1;
-            t[2][((v >> 16) & 0xff) as usize] += 1;
-            t[3][((v >> 24) & 0xff) as usize] += 1;
-            t[0][((v >> 32) & 0xff) as usize] += 1;
-            t[1][((v >> 40) & 0xff) as usize] += 1;
-            t[2][((v >> 48) & 0xff) as usize] += 1;
-            t[3][(v >> 56) as usize] += 1;
+            let a = u64::from_le_bytes(c[..8].try_into().unwrap());
+            let b = u64::from_le_bytes(c[8..].try_into().unwrap());
+            for k in 0..8 {
+                t[k][((a >> (8 * k)) & 0xff) as usize] += 1;
+            }
+            for k in 0..8 {
+                t[k][((b >> (8 * k)) & 0xff) as usize] += 1;
+            }
         }
         for &v in chunks.remainder() {
             t[0][v as usize] += 1;
@@ -622,7 +622,7 @@ pub fn histogram(img: GrayView<'_>, roi: Roi) -> [u32; 256] {
     }
     let mut h = [0u32; 256];
     for (i, hv) in h.iter_mut().enumerate() {
-        *hv = t[0][i] + t[1][i] + t[2][i] + t[3][i];
+        *hv = t.iter().map(|tk| tk[i]).sum();
     }
     h
 }
@@ -650,9 +650,9 @@ pub fn otsu(hist: &[u32; 256]) -> Option<Otsu> {
     let mut sum0 = 0.0f64;
     let mut best = -1.0f64;
     let (mut lo, mut hi) = (0usize, 0usize);
-    for t in 0..255 {
-        w0 += hist[t] as u64;
-        sum0 += t as f64 * hist[t] as f64;
+    for (t, &count) in hist.iter().enumerate().take(255) {
+        w0 += count as u64;
+        sum0 += t as f64 * count as f64;
         if w0 == 0 {
             continue;
         }

@@ -164,3 +164,69 @@ fn index_accepts_extra_columns_any_order_and_spaces() {
         (0.5, "b.png", 2)
     );
 }
+
+fn encode(w: u32, h: u32, ct: png::ColorType, depth: png::BitDepth, data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut enc = png::Encoder::new(&mut out, w, h);
+    enc.set_color(ct);
+    enc.set_depth(depth);
+    enc.write_header().unwrap().write_image_data(data).unwrap();
+    out
+}
+
+#[test]
+fn other_png_kinds_are_converted_to_8_bit_gray() {
+    use magswarm_vision::folder::decode_png;
+    // 2 x 1 pixels: 200 and 40
+    let g8 = decode_png(&encode(
+        2,
+        1,
+        png::ColorType::Grayscale,
+        png::BitDepth::Eight,
+        &[200, 40],
+    ))
+    .unwrap();
+    assert_eq!(g8.data(), &[200, 40]);
+    let g16 = encode(
+        2,
+        1,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &[200, 7, 40, 250],
+    );
+    assert_eq!(decode_png(&g16).unwrap().data(), &[200, 40]);
+    let ga = encode(
+        2,
+        1,
+        png::ColorType::GrayscaleAlpha,
+        png::BitDepth::Eight,
+        &[200, 255, 40, 0],
+    );
+    assert_eq!(decode_png(&ga).unwrap().data(), &[200, 40]);
+    let rgb = encode(
+        2,
+        1,
+        png::ColorType::Rgb,
+        png::BitDepth::Eight,
+        &[200, 200, 200, 40, 40, 40],
+    );
+    assert_eq!(decode_png(&rgb).unwrap().data(), &[200, 40]);
+    let rgba = encode(
+        2,
+        1,
+        png::ColorType::Rgba,
+        png::BitDepth::Eight,
+        &[255, 0, 0, 255, 0, 0, 255, 255],
+    );
+    assert_eq!(decode_png(&rgba).unwrap().data(), &[76, 29]);
+    let g1 = encode(
+        2,
+        1,
+        png::ColorType::Grayscale,
+        png::BitDepth::One,
+        &[0b1000_0000],
+    );
+    assert_eq!(decode_png(&g1).unwrap().data(), &[255, 0]);
+    let e = decode_png(b"\x89PNG\r\n\x1a\nbroken").unwrap_err();
+    assert!(!e.is_empty());
+}
