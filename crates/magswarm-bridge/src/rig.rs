@@ -231,20 +231,22 @@ impl Rig {
             ));
             robot = Some(Robot::open(cfg, &env)?);
         }
-        let t0 = Instant::now();
-        let (probe_cell, probe) = camera::command_probe();
-        let source = match camera_override {
-            Some(c) => c,
-            None => camera::from_config(cfg, start, probe).map_err(|e| anyhow::anyhow!(e))?,
-        };
-        let cam = Threaded::spawn(source, t0, cfg.emulator.camera_stops_after_s)
-            .map_err(|e| anyhow::anyhow!("[camera] {e}"))?;
         let mut shaper = Shaper::new(env, Some(start));
         if let Some(rb) = &robot {
             if let Some(s) = rb.link.state() {
                 shaper = Shaper::new(env, Some((rb.z_mm(&s), start.1)));
             }
         }
+        // The emulated swarm starts where the devices are.
+        let cam_start = shaper.last().expect("started");
+        let t0 = Instant::now();
+        let (probe_cell, probe) = camera::command_probe();
+        let source = match camera_override {
+            Some(c) => c,
+            None => camera::from_config(cfg, cam_start, probe).map_err(|e| anyhow::anyhow!(e))?,
+        };
+        let cam = Threaded::spawn(source, t0, cfg.emulator.camera_stops_after_s)
+            .map_err(|e| anyhow::anyhow!("[camera] {e}"))?;
         let in_force = shaper.last().expect("started");
         let mut rig = Rig {
             robot,
