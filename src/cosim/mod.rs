@@ -37,6 +37,7 @@
 //! ```
 
 mod error;
+pub mod extract;
 mod import;
 mod runner;
 mod slave;
