@@ -440,7 +440,7 @@ fn build_variables() -> Vec<Variable> {
         Variable::string("model_file", vr::MODEL_FILE)
             .parameter()
             .start_string("")
-            .description("path of a model JSON (magswarm-model/1) replacing the defaults; empty: resources/model.json"),
+            .description("path of a model JSON (magswarm-model/2, or /1) replacing the defaults; empty: resources/model.json"),
     ];
     for (i, p) in PARAMS.iter().enumerate() {
         let mut var = Variable::real(p.name, vr::PARAM_BASE + i as u32)
@@ -687,10 +687,12 @@ impl FmuModel for MagSwarm {
         Ok(())
     }
 
-    fn do_step(&mut self, ctx: &mut Ctx<'_>, _current_time: f64, step: f64) -> Result<(), Fmi2Err> {
+    fn do_step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), Fmi2Err> {
         self.check_envelope(ctx);
         let (z, w) = (self.z_m, self.omega);
         let plant = self.plant();
+        // The plant's clock is the FMU's (time-dependent effects such as particle drift).
+        plant.set_time(current_time);
         plant.step(step).map_err(|e| {
             Fmi2Err::error(format!(
                 "doStep: ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
