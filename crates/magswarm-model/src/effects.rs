@@ -23,14 +23,16 @@
 //! observed radii: `Plant::outputs` and [`observed_steady`] apply them; the ODE state stays
 //! the physical footprint.
 //!
-//! Parameter metadata (units, physical bounds, fit bounds, neutral values) is one table,
-//! [`PARAMS`], which model-file validation iterates over.
+//! Parameter metadata (units, physical bounds, fit bounds) are rows of the parameter registry
+//! ([`crate::registry`], group `Effect(name)`), so that model-file validation, the FMU's
+//! parameter variables and `identify` see them; [`params_of`] and [`neutral`] read them.
 
 #![allow(non_snake_case)]
 
 use serde::{Deserialize, Serialize};
 
 use crate::field::{FieldAtSwarm, MagnetConfig};
+use crate::registry::{Group, Param};
 use crate::steady::SteadyPoint;
 use crate::Model;
 
@@ -400,228 +402,47 @@ pub fn observed_steady(model: &Model, z_m: f64, omega: f64, t: f64) -> SteadyPoi
     model.effects.observe_steady(&sp, t)
 }
 
-/// One numeric effect parameter: metadata for validation, the FMU and fits.
-#[derive(Debug, Clone, Copy)]
-pub struct EffectParam {
-    /// Effect it belongs to (one of [`NAMES`]).
-    pub effect: &'static str,
-    /// Field name inside the effect.
-    pub field: &'static str,
-    /// Full name `effect.field`, as in the model file's `effects` section and the FMU.
-    pub name: &'static str,
-    /// Unit (as written in docs and the FMU).
-    pub unit: &'static str,
-    /// One-line meaning.
-    pub description: &'static str,
-    /// Value with which the effect is the seed's model exactly.
-    pub neutral: f64,
-    /// Physical bounds (model-file validation) [lo, hi].
-    pub bounds: [f64; 2],
-    /// Bounds a fit should search [lo, hi].
-    pub fit_bounds: [f64; 2],
-    /// Fit in log space (positive, scale-like parameters).
-    pub log_scale: bool,
-    /// Value in a model (the neutral value when the effect is off).
-    pub get: fn(&Model) -> f64,
-    /// Set the value, switching the effect on (others at neutral) if it was off.
-    pub set: fn(&mut Model, f64),
+/// The registry rows of one effect's parameters (name `effect.field`, unit, physical and fit
+/// bounds, accessors): see [`crate::registry`].
+pub fn params_of(effect: &str) -> impl Iterator<Item = &'static Param> + '_ {
+    crate::registry::PARAMS
+        .iter()
+        .filter(move |p| matches!(p.group, Group::Effect(e) if e == effect))
 }
 
-macro_rules! eparam {
-    ($eff:ident, $ty:ident, $field:ident, $unit:expr, $desc:expr, $bounds:expr, $fit:expr, $log:expr) => {
-        EffectParam {
-            effect: stringify!($eff),
-            field: stringify!($field),
-            name: concat!(stringify!($eff), ".", stringify!($field)),
-            unit: $unit,
-            description: $desc,
-            neutral: $ty::NEUTRAL.$field,
-            bounds: $bounds,
-            fit_bounds: $fit,
-            log_scale: $log,
-            get: |m: &Model| m.effects.$eff.unwrap_or($ty::NEUTRAL).$field,
-            set: |m: &mut Model, v: f64| {
-                m.effects.$eff.get_or_insert($ty::NEUTRAL).$field = v;
-            },
-        }
-    };
-}
-
-/// Every effect parameter, grouped by effect in [`NAMES`] order.
-pub static PARAMS: &[EffectParam] = &[
-    eparam!(
-        phase_lag,
-        PhaseLag,
-        f_so_hz,
-        "Hz",
-        "step-out frequency of the swarm rotation at the field B_ref",
-        [0.1, 1.0e6],
-        [2.0, 30.0],
-        true
-    ),
-    eparam!(
-        phase_lag,
-        PhaseLag,
-        nu,
-        "1",
-        "field exponent of the step-out frequency",
-        [0.0, 4.0],
-        [0.0, 3.0],
-        false
-    ),
-    eparam!(
-        cohesion_loss,
-        CohesionLoss,
-        z_c_mm,
-        "mm",
-        "distance past which the confinement fades",
-        [-20.0, 100.0],
-        [3.5, 23.5],
-        false
-    ),
-    eparam!(
-        cohesion_loss,
-        CohesionLoss,
-        k_per_mm2,
-        "1/mm2",
-        "fading rate of the confinement (fading length 1/sqrt(k))",
-        [0.0, 100.0],
-        [0.0, 1.0],
-        false
-    ),
-    eparam!(
-        formation_lag,
-        FormationLag,
-        share,
-        "1",
-        "share of the footprint formed through the slow mode",
-        [0.0, 1.0],
-        [0.0, 1.0],
-        false
-    ),
-    eparam!(
-        formation_lag,
-        FormationLag,
-        tau_s,
-        "s",
-        "time scale of the slow formation mode",
-        [1e-3, 1e5],
-        [0.5, 300.0],
-        true
-    ),
-    eparam!(
-        formation_lag,
-        FormationLag,
-        zeta,
-        "1",
-        "damping ratio of the slow formation mode (< 1: oscillating)",
-        [0.01, 100.0],
-        [0.05, 5.0],
-        true
-    ),
-    eparam!(
-        particle_drift,
-        ParticleDrift,
-        rate_per_h,
-        "1/h",
-        "relative growth rate of the radii over session time (negative: shrinking)",
-        [-10.0, 10.0],
-        [-2.0, 2.0],
-        false
-    ),
-    eparam!(
-        centroid_offset,
-        CentroidOffset,
-        offset_mm,
-        "mm",
-        "extra radial distance of the swarm centroid from the rotation axis",
-        [-50.0, 50.0],
-        [-6.0, 15.0],
-        false
-    ),
-    eparam!(
-        camera_bias,
-        CameraBias,
-        scale,
-        "1",
-        "scale error of the measured radii",
-        [0.2, 5.0],
-        [0.7, 1.4],
-        true
-    ),
-    eparam!(
-        camera_bias,
-        CameraBias,
-        offset_mm,
-        "mm",
-        "offset of the measured radii",
-        [-20.0, 20.0],
-        [-3.0, 3.0],
-        false
-    ),
-    eparam!(
-        camera_bias,
-        CameraBias,
-        tilt_deg,
-        "deg",
-        "tilt of the image plane about the r1 axis (foreshortens r2)",
-        [-80.0, 80.0],
-        [-45.0, 45.0],
-        false
-    ),
-];
-
-/// The parameters of one effect.
-pub fn params_of(effect: &str) -> impl Iterator<Item = &'static EffectParam> + '_ {
-    PARAMS.iter().filter(move |p| p.effect == effect)
-}
-
-/// First invalid parameter of an enabled effect: (JSON path, message).
-pub fn check(model: &Model) -> Option<(String, String)> {
-    for p in PARAMS {
-        if !model.effects.is_on(p.effect) {
-            continue;
-        }
-        let v = (p.get)(model);
-        let path = format!("effects.{}", p.name);
-        if !v.is_finite() {
-            return Some((path, format!("must be finite (got {v})")));
-        }
-        if v < p.bounds[0] || v > p.bounds[1] {
-            return Some((
-                path,
-                format!(
-                    "out of range: {v} {} not in [{}, {}]",
-                    p.unit, p.bounds[0], p.bounds[1]
-                ),
-            ));
-        }
-    }
-    None
+/// The neutral value of an effect parameter (with it the effect is the seed's model).
+pub fn neutral(p: &Param) -> f64 {
+    let mut m = Model::paper();
+    m.effects = Effects::default();
+    (p.get)(&m)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::registry::Physical;
 
     #[test]
-    fn table_covers_every_effect_and_neutral_is_inside_bounds() {
+    fn registry_covers_every_effect_and_neutral_is_inside_bounds() {
         for n in NAMES {
             assert!(params_of(n).count() > 0, "{n} has no parameters");
         }
-        for p in PARAMS {
-            assert!(NAMES.contains(&p.effect));
-            assert!(
-                p.bounds[0] <= p.neutral && p.neutral <= p.bounds[1],
-                "{}",
-                p.name
-            );
-            assert!(p.bounds[0] <= p.fit_bounds[0] && p.fit_bounds[1] <= p.bounds[1]);
+        for p in crate::registry::PARAMS {
+            let Group::Effect(e) = p.group else { continue };
+            assert!(NAMES.contains(&e));
+            assert_eq!(p.path, format!("effects.{}", p.name));
+            let v = neutral(p);
+            let Physical::Range(lo, hi) = p.physical else {
+                panic!("{}: effect bounds are ranges", p.name)
+            };
+            assert!(lo <= v && v <= hi, "{}", p.name);
+            let f = p.fit.expect("effect parameters are fittable");
+            assert!(lo <= f.lo && f.hi <= hi);
             let mut m = Model::paper();
-            assert!(!m.effects.is_on(p.effect));
-            (p.set)(&mut m, p.fit_bounds[1]);
-            assert!(m.effects.is_on(p.effect));
-            assert_eq!((p.get)(&m), p.fit_bounds[1]);
+            assert!(!m.effects.is_on(e));
+            (p.set)(&mut m, f.hi);
+            assert!(m.effects.is_on(e));
+            assert_eq!((p.get)(&m), f.hi);
         }
     }
 

@@ -15,6 +15,9 @@
 //! - [`effects`]: the unmodelled effects as model terms (phase lag, cohesion loss, formation
 //!   lag, particle drift, centroid offset, camera bias), each nesting the seed's model;
 //! - [`model_file`]: the versioned JSON model file (`magswarm-model/2`, reads `/1`);
+//! - [`registry`]: one table of every numeric parameter (name, unit, bounds, accessors),
+//!   which validation, the FMU's parameters and `identify` iterate over (effect parameters
+//!   included);
 //! - [`reconstruction`]: the constants Table I leaves out, and why they have their values.
 //!
 //! Units: inputs are SI (z_m in m, omega_m in rad/s); radii are in mm (Table I's unit for
@@ -32,6 +35,7 @@ pub mod model_file;
 pub mod params;
 pub mod plant;
 pub mod reconstruction;
+pub mod registry;
 pub mod steady;
 
 pub use envelope::{Envelope, Validity};
