@@ -237,7 +237,7 @@ pub static PARAMS: &[Param] = &[
     // Unmodelled effects (crate::effects; docs/effects.md), below the existing rows so that value
     // references do not move. Reading an effect that is off gives its neutral value; writing
     // switches it on (its other parameters neutral).
-    effect_param!(phase_lag.f_so_hz, PhaseLag, Some("Hz"), "phase_lag: step-out frequency of the swarm rotation at the field B_ref", range(0.1, 1.0e6), fit(2.0, 30.0, Log, false)),
+    effect_param!(phase_lag.f_so_hz, PhaseLag, Some("Hz"), "phase_lag: step-out frequency of the swarm rotation at the field B_ref", range(0.1, 1.0e6), fit(2.0, 1.0e4, Log, false)),
     effect_param!(phase_lag.nu, PhaseLag, None, "phase_lag: field exponent of the step-out frequency", range(0.0, 4.0), fit(0.0, 3.0, Sin, false)),
     effect_param!(cohesion_loss.z_c_mm, CohesionLoss, Some("mm"), "cohesion_loss: distance past which the confinement fades", range(-20.0, 100.0), fit(3.5, 23.5, Sin, false)),
     effect_param!(cohesion_loss.k_per_mm2, CohesionLoss, None, "cohesion_loss: fading rate of the confinement [1/mm2] (fading length 1/sqrt(k))", range(0.0, 100.0), fit(0.0, 1.0, Sin, false)),
