@@ -10,6 +10,7 @@ pub use magswarm_model as model;
 
 pub mod control_cli;
 pub mod cosim;
+pub mod diagnose;
 pub mod identify;
 pub mod log;
 pub mod packaging;
