@@ -13,6 +13,7 @@ pub use magswarm_model as model;
 
 pub mod control_cli;
 pub mod cosim;
+pub mod diagnose;
 pub mod identify;
 pub mod lab;
 pub mod outputs;

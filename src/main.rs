@@ -24,6 +24,8 @@ enum Cmd {
     Predict(magswarm::predict::PredictArgs),
     /// Fit the model's parameters to measured logs.
     Identify(magswarm::identify::IdentifyArgs),
+    /// The sim-to-real gap report: where the gap lies, which unmodelled effect causes it.
+    Diagnose(magswarm::diagnose::DiagnoseArgs),
     /// Feedforward: the inputs (z_m, f) that give target radii (r1*, r2*).
     Inverse(magswarm::control_cli::InverseArgs),
     /// Linearise the plant at an operating point (A, B, C, D).
@@ -77,6 +79,7 @@ fn main() {
         Cmd::Fmu(a) => magswarm::packaging::run(a),
         Cmd::Predict(a) => magswarm::predict::run(a),
         Cmd::Identify(a) => magswarm::identify::run(a),
+        Cmd::Diagnose(a) => magswarm::diagnose::run(a),
         Cmd::Inverse(a) => magswarm::control_cli::run_inverse(a),
         Cmd::Linearize(a) => magswarm::control_cli::run_linearize(a),
         Cmd::Lab(a) => magswarm::lab::run(a),

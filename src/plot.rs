@@ -553,6 +553,64 @@ fn edges(c: &[f64]) -> Vec<f64> {
 /// A filled colour map (viridis) of `map` with a colour bar on the right; under the bar its
 /// label, the value range and the legend of `map.marks` (drawn as open circles on the map).
 pub fn heatmap(path: &Path, labels: &Labels, map: &Heatmap) -> Result<()> {
+    heatmap_cmap(path, labels, map, viridis)
+}
+
+/// As [`heatmap`] with a diverging blue-white-red colour map for signed quantities
+/// (residuals): the range is made symmetric about zero so that white is zero.
+pub fn heatmap_diverging(path: &Path, labels: &Labels, map: &Heatmap) -> Result<()> {
+    let m = match map.range {
+        Some((a, b)) => a.abs().max(b.abs()),
+        None => map
+            .values
+            .iter()
+            .flatten()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |m, v| m.max(v.abs())),
+    }
+    .max(1e-12);
+    let sym = Heatmap {
+        range: Some((-m, m)),
+        ..*map
+    };
+    heatmap_cmap(path, labels, &sym, diverging)
+}
+
+/// Diverging colour map (blue - white - red, ColorBrewer RdBu reversed), `t` in [0, 1] with
+/// white at 0.5.
+pub fn diverging(t: f64) -> RGBColor {
+    const V: [(f64, f64, f64); 7] = [
+        (33.0, 102.0, 172.0),
+        (103.0, 169.0, 207.0),
+        (209.0, 229.0, 240.0),
+        (247.0, 247.0, 247.0),
+        (253.0, 219.0, 199.0),
+        (239.0, 138.0, 98.0),
+        (178.0, 24.0, 43.0),
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.5
+    };
+    let s = t * (V.len() - 1) as f64;
+    let i = (s.floor() as usize).min(V.len() - 2);
+    let u = s - i as f64;
+    let l = |a: f64, b: f64| (a + (b - a) * u).round() as u8;
+    RGBColor(
+        l(V[i].0, V[i + 1].0),
+        l(V[i].1, V[i + 1].1),
+        l(V[i].2, V[i + 1].2),
+    )
+}
+
+/// The filled colour map behind [`heatmap`] and [`heatmap_diverging`].
+fn heatmap_cmap(
+    path: &Path,
+    labels: &Labels,
+    map: &Heatmap,
+    cmap: fn(f64) -> RGBColor,
+) -> Result<()> {
     let (nx, ny) = (map.xs.len(), map.ys.len());
     if nx == 0 || ny == 0 || map.values.len() != ny || map.values.iter().any(|r| r.len() != nx) {
         return Err(anyhow!(
@@ -593,7 +651,7 @@ pub fn heatmap(path: &Path, labels: &Labels, map: &Heatmap) -> Result<()> {
         for i in 0..nx {
             let v = map.values[j][i];
             let c = if v.is_finite() {
-                viridis((v - vmin) / span)
+                cmap((v - vmin) / span)
             } else {
                 RGBColor(160, 160, 160)
             };
@@ -649,7 +707,7 @@ pub fn heatmap(path: &Path, labels: &Labels, map: &Heatmap) -> Result<()> {
             let b = vmin + span * (k + 1) as f64 / bands as f64;
             Rectangle::new(
                 [(0.0, a), (1.0, b)],
-                viridis((k as f64 + 0.5) / bands as f64).filled(),
+                cmap((k as f64 + 0.5) / bands as f64).filled(),
             )
         })),
         path,

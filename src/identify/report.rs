@@ -448,7 +448,7 @@ fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
             }
             let name = format!("residual_r{}.png", a + 1);
             let title = format!("Residual r{} (model - measured mean) over (z_m, f)", a + 1);
-            plot::heatmap(
+            plot::heatmap_diverging(
                 &dir.join(&name),
                 &Labels {
                     title: &title,

@@ -1,0 +1,507 @@
+//! `magswarm diagnose`: the sim-to-real gap report. Where the gap between the model and a
+//! measured log lies, which unmodelled effect causes it, and how far it shrinks once that
+//! effect is added, checked on data the fits never saw.
+//!
+//! The procedure (each step in its module):
+//!
+//! 1. **Baseline**: the model without effects, fitted by identify (steady map; ODE time
+//!    scales where the log holds transients) on the training log.
+//! 2. **Is there a gap** ([`gap`]): lack of fit against the pure error of the repeats, and
+//!    residual structure over the inputs, over session time and after input changes, by
+//!    permutation and paired tests with the visit as the unit. No significant gap: nothing is
+//!    accepted.
+//! 3. **Where** ([`gap::localise`]): regions as ranges of z_m, f and time, with
+//!    Benjamini-Hochberg control over the boxes searched.
+//! 4. **Which effect** ([`attribute`]): each candidate ([`candidates`]) refitted with the
+//!    baseline on training folds grouped by visit; accepted by withheld-likelihood gain over a
+//!    BIC penalty, a paired test, plausible parameters and a matching residual signature;
+//!    forward selection for several effects; ambiguity reported, never resolved silently.
+//! 5. **What stays unexplained**: significant regions no accepted effect explains, with a
+//!    Gaussian-process discrepancy over the inputs ([`gp`]) and the share of the withheld
+//!    error there it recovers.
+//! 6. **How far it shrinks**: baseline and augmented RMSE per axis on withheld visits (grouped
+//!    cross-validation) and on the `--withheld` log, against the pure-error floor.
+//!
+//! Outputs ([`report`]): `DIR/report.json`, `DIR/baseline.json`, `DIR/augmented.json`,
+//! `DIR/report.md` with its figures.
+
+pub mod attribute;
+pub mod candidates;
+pub mod data;
+pub mod fitter;
+pub mod gap;
+pub mod gp;
+pub mod report;
+pub mod stats;
+pub mod synth;
+
+use crate::identify::{self, data::SettleRule};
+use crate::log::{Log, ReadOptions};
+use anyhow::{bail, Context, Result};
+use candidates::{Augmented, Ctx};
+use data::{Dataset, PureError};
+use magswarm_model::Model;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Arguments of `magswarm diagnose`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct DiagnoseArgs {
+    /// Measurement log (CONTRACTS.md format) the baseline and the candidates are fitted to.
+    #[arg(long)]
+    pub log: PathBuf,
+    /// A log withheld from every fit, used only to validate.
+    #[arg(long)]
+    pub withheld: Option<PathBuf>,
+    /// Prior model JSON (start values, fixed parameters, conventions; default: paper model).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Output directory (report.json, baseline.json, augmented.json, report.md, figures).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Significance level of the gap decision and of the attribution.
+    #[arg(long, default_value_t = 0.01)]
+    pub alpha: f64,
+    /// Cross-validation folds (groups of whole visits).
+    #[arg(long, default_value_t = 5)]
+    pub folds: usize,
+    /// Permutations of the structure tests.
+    #[arg(long, default_value_t = 499)]
+    pub permutations: usize,
+    /// Random seed (folds, permutations).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Skip bad rows (each reported on stderr) instead of failing.
+    #[arg(long)]
+    pub lenient: bool,
+}
+
+/// Library face of the flags.
+#[derive(Debug, Clone, Copy)]
+pub struct Config {
+    /// Significance level.
+    pub alpha: f64,
+    /// Folds.
+    pub folds: usize,
+    /// Permutations.
+    pub permutations: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Most effects accepted together.
+    pub max_effects: usize,
+    /// Show progress on a terminal.
+    pub progress: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            alpha: 0.01,
+            folds: 5,
+            permutations: 499,
+            seed: 1,
+            max_effects: 3,
+            progress: false,
+        }
+    }
+}
+
+/// Errors of a model on a set of rows, per axis [mm].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rmse {
+    /// RMSE per axis [mm].
+    pub rmse: [f64; 2],
+    /// Rows.
+    pub n: usize,
+}
+
+fn rmse(ds: &Dataset, pred: &[[f64; 2]]) -> Rmse {
+    let mut s = [0.0; 2];
+    for (r, p) in ds.rows.iter().zip(pred) {
+        for a in 0..2 {
+            s[a] += (r.r[a] - p[a]).powi(2);
+        }
+    }
+    let n = ds.rows.len().max(1) as f64;
+    Rmse {
+        rmse: [(s[0] / n).sqrt(), (s[1] / n).sqrt()],
+        n: ds.rows.len(),
+    }
+}
+
+/// A region no accepted effect explains.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Unexplained {
+    /// The region (as localised on the baseline).
+    pub region: gap::Region,
+    /// Its mean residual under the augmented model [mm].
+    pub mean_after: f64,
+    /// Share of the withheld error there that the discrepancy recovers (None: not applicable).
+    pub heldout_shrink: Option<f64>,
+}
+
+/// Validation on the `--withheld` log.
+#[derive(Debug, Clone)]
+pub struct Withheld {
+    /// Name.
+    pub source: String,
+    /// Baseline RMSE.
+    pub baseline: Rmse,
+    /// Augmented RMSE.
+    pub augmented: Rmse,
+}
+
+/// Everything a diagnosis produced.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    /// Input log names.
+    pub sources: Vec<String>,
+    /// The baseline identification.
+    pub ident: identify::Identification,
+    /// Training data.
+    pub ds: Dataset,
+    /// Context of the effects.
+    pub ctx: Ctx,
+    /// Pure error.
+    pub pe: PureError,
+    /// Row SD of the pure error around the augmented model: the noise floor [mm].
+    pub floor: [f64; 2],
+    /// Pure error around the augmented model (repeat visits compared after its effects).
+    pub pe_aug: PureError,
+    /// Family tests.
+    pub tests: gap::GapTests,
+    /// Regions.
+    pub regions: Vec<gap::Region>,
+    /// Baseline steady map at the points.
+    pub base_map: Vec<[f64; 2]>,
+    /// Attribution.
+    pub attr: attribute::Attribution,
+    /// Unexplained regions.
+    pub unexplained: Vec<Unexplained>,
+    /// Withheld log.
+    pub withheld: Option<Withheld>,
+    /// Wall time.
+    pub elapsed: Duration,
+    /// Settings.
+    pub cfg: Config,
+}
+
+impl Diagnosis {
+    /// Row-level RMSE (train, withheld-by-CV) of the baseline and the augmented model.
+    pub fn rmse_table(&self) -> [(Rmse, Rmse); 2] {
+        [
+            (
+                rmse(&self.ds, &self.attr.baseline.pred),
+                rmse(&self.ds, &self.attr.baseline.cv),
+            ),
+            (
+                rmse(&self.ds, &self.attr.augmented.pred),
+                rmse(&self.ds, &self.attr.augmented.cv),
+            ),
+        ]
+    }
+
+    /// Share of the withheld excess MSE over the floor that the augmented model removes, per
+    /// axis and for both axes together (None where the baseline has no excess).
+    pub fn excess_removed(&self) -> [Option<f64>; 3] {
+        let t = self.rmse_table();
+        let (b, a) = (t[0].1.rmse, t[1].1.rmse);
+        let f = self.floor;
+        let one = |b: f64, a: f64, f: f64| {
+            let eb = b * b - f * f;
+            (eb > 0.05 * f * f).then(|| 1.0 - (a * a - f * f) / eb)
+        };
+        let both = {
+            let eb = b[0] * b[0] + b[1] * b[1] - f[0] * f[0] - f[1] * f[1];
+            let ea = a[0] * a[0] + a[1] * a[1] - f[0] * f[0] - f[1] * f[1];
+            (eb > 0.05 * (f[0] * f[0] + f[1] * f[1])).then(|| 1.0 - ea / eb)
+        };
+        [one(b[0], a[0], f[0]), one(b[1], a[1], f[1]), both]
+    }
+}
+
+fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
+    if show && std::io::stderr().is_terminal() {
+        let pb = indicatif::ProgressBar::new(len);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        pb
+    } else {
+        indicatif::ProgressBar::hidden()
+    }
+}
+
+/// Refuse a log that cannot support a diagnosis, naming what is missing.
+fn check_usable(ds: &Dataset, pe: &PureError, source: &str) -> Result<()> {
+    let (zs, fs) = ds.levels();
+    if ds.points.len() < 6 {
+        bail!(
+            "{source}: too few operating points: {} distinct (z_m, f) pair(s) with valid radii; \
+             a diagnosis needs at least 6 (the baseline alone has 8 free parameters on 2 radii \
+             per point, and the gap is judged by its structure over the points)",
+            ds.points.len()
+        );
+    }
+    if fs.len() < 2 {
+        bail!(
+            "{source}: one frequency only ({} Hz): the frequency dependence of the model and \
+             the frequency effects (phase lag) cannot be judged; add visits at other \
+             frequencies",
+            fs[0]
+        );
+    }
+    if zs.len() < 2 {
+        bail!(
+            "{source}: one z_m only ({} mm): the distance dependence cannot be judged; add \
+             visits at other distances",
+            zs[0]
+        );
+    }
+    if pe.within_dof == 0 && pe.between_dof == 0 {
+        bail!(
+            "{source}: no repeats: no visit has two or more settled rows and no operating point \
+             was visited twice, so there is no pure error to tell a gap from noise; record \
+             several rows per visit or revisit points"
+        );
+    }
+    Ok(())
+}
+
+/// Diagnose a log (and validate on `withheld`).
+pub fn diagnose(
+    log: &Log,
+    withheld: Option<&Log>,
+    prior: &Model,
+    cfg: &Config,
+) -> Result<Diagnosis> {
+    let t0 = Instant::now();
+    if !log.has_radii() {
+        bail!(
+            "{}: no r1_mm, r2_mm columns: diagnose needs measured radii",
+            log.source
+        );
+    }
+    let pb = progress_bar(cfg.progress, 3 + 1 + 6 + 5 + 4);
+    pb.set_message("baseline");
+    let icfg = identify::Config {
+        starts: 4,
+        bootstrap: 0,
+        seed: cfg.seed,
+        progress: false,
+        ..identify::Config::default()
+    };
+    let ident = identify::identify(std::slice::from_ref(log), prior, &icfg)
+        .context("fitting the baseline (identify)")?;
+    pb.inc(1);
+    let baseline = ident.model.clone();
+    let settle = ident.settle;
+    let sessions = data::sessions(std::slice::from_ref(log), settle, &baseline);
+    let ds = Dataset::build(&sessions, &baseline)?;
+    let pe = data::pure_error(&ds);
+    check_usable(&ds, &pe, &log.source)?;
+    let row_sd = pe.row_sd();
+    let sd = [row_sd[0].max(1e-3), row_sd[1].max(1e-3)];
+    let ctx = Ctx::new(&baseline, &ds);
+    let base_aug = Augmented::baseline(&baseline);
+    let base_map = candidates::point_map(&base_aug, &ds, &ctx);
+    let base_pred = candidates::predict(&base_aug, &ds, &ctx);
+    let res: Vec<[f64; 2]> = ds
+        .rows
+        .iter()
+        .zip(&base_pred)
+        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
+        .collect();
+    pb.set_message("gap tests");
+    let tests = gap::tests(
+        &ds,
+        &res,
+        &pe,
+        &base_map,
+        ident.steady.free.len(),
+        cfg.alpha,
+        cfg.permutations,
+        cfg.seed,
+    );
+    let regions = if tests.significant {
+        gap::localise(&ds, &res, &base_map, &tests)
+    } else {
+        Vec::new()
+    };
+    pb.inc(2);
+    pb.set_message("candidates");
+    let n_free = ident.steady.free.len();
+    let relocalise = |r: &[[f64; 2]]| -> Vec<gap::Region> {
+        let t = gap::tests(
+            &ds,
+            r,
+            &pe,
+            &base_map,
+            n_free,
+            cfg.alpha,
+            cfg.permutations,
+            cfg.seed,
+        );
+        if t.significant {
+            gap::localise(&ds, r, &base_map, &t)
+        } else {
+            Vec::new()
+        }
+    };
+    let attr = attribute::attribute(
+        &ds,
+        &ctx,
+        &base_aug,
+        &ident.steady.free,
+        sd,
+        &regions,
+        &base_map,
+        attribute::Settings {
+            folds: cfg.folds,
+            alpha: cfg.alpha,
+            max_effects: cfg.max_effects,
+            seed: cfg.seed,
+        },
+        &relocalise,
+        &pb,
+    );
+    // Unexplained regions, with the discrepancy's withheld recovery.
+    let res_aug: Vec<[f64; 2]> = ds
+        .rows
+        .iter()
+        .zip(&attr.augmented.pred)
+        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
+        .collect();
+    let res_cv: Vec<[f64; 2]> = ds
+        .rows
+        .iter()
+        .zip(&attr.augmented.cv)
+        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
+        .collect();
+    let vr_cv = gap::visit_residuals(&ds, &res_cv);
+    let pe_aug = data::pure_error_of(&ds, &res_aug);
+    let floor = pe_aug.row_sd();
+    let vr_aug = gap::visit_residuals(&ds, &res_aug);
+    let xs: Vec<Vec<f64>> = gap::coords(&ds).iter().map(|c| c.to_vec()).collect();
+    let ts: Vec<Vec<f64>> = {
+        let tmax = ds.visits.iter().map(|v| v.t_mid).fold(1e-9f64, f64::max);
+        ds.visits.iter().map(|v| vec![v.t_mid / tmax]).collect()
+    };
+    // What the augmented model leaves: the gap tests and regions on its residuals.
+    let left = if attr.accepted.is_empty() {
+        regions.clone()
+    } else {
+        relocalise(&res_aug)
+    };
+    let mut unexplained = Vec::new();
+    for r in &left {
+        let after = gap::region_mean(&ds, &res_aug, &base_map, r);
+        let shrink = match r.kind {
+            gap::Kind::Formation => None,
+            kind => {
+                let x = if kind == gap::Kind::Drift { &ts } else { &xs };
+                let y: Vec<f64> = vr_aug.e.iter().map(|e| e[r.axis]).collect();
+                let noise2 = tests.visit_sd[r.axis].powi(2);
+                let g = gp::cv_predict(x, &y, &attr.fold_of_visit, noise2);
+                let (mut before, mut after) = (0.0, 0.0);
+                for &v in &r.visits {
+                    let e = vr_cv.e[v][r.axis];
+                    before += e * e;
+                    after += (e - g[v]).powi(2);
+                }
+                (before > 0.0).then(|| 1.0 - after / before)
+            }
+        };
+        unexplained.push(Unexplained {
+            region: r.clone(),
+            mean_after: after,
+            heldout_shrink: shrink,
+        });
+    }
+    // The withheld log.
+    let withheld = match withheld {
+        None => None,
+        Some(w) => {
+            if !w.has_radii() {
+                bail!("{}: the withheld log has no r1_mm, r2_mm columns", w.source);
+            }
+            let ws = data::sessions(std::slice::from_ref(w), settle, &baseline);
+            let wds = Dataset::build(&ws, &baseline)?;
+            if wds.rows.is_empty() {
+                bail!(
+                    "{}: the withheld log has no valid rows with radii",
+                    w.source
+                );
+            }
+            let pb_ = candidates::predict(&attr.baseline.full.aug, &wds, &ctx);
+            let pa = candidates::predict(&attr.augmented.full.aug, &wds, &ctx);
+            Some(Withheld {
+                source: w.source.clone(),
+                baseline: rmse(&wds, &pb_),
+                augmented: rmse(&wds, &pa),
+            })
+        }
+    };
+    pb.finish_and_clear();
+    Ok(Diagnosis {
+        sources: vec![log.source.clone()],
+        ident,
+        ds,
+        ctx,
+        pe,
+        floor,
+        pe_aug,
+        tests,
+        regions,
+        base_map,
+        attr,
+        unexplained,
+        withheld,
+        elapsed: t0.elapsed(),
+        cfg: *cfg,
+    })
+}
+
+/// Run the command.
+pub fn run(a: &DiagnoseArgs) -> Result<()> {
+    if !(a.alpha > 0.0 && a.alpha < 0.5) {
+        bail!("--alpha {}: must lie in (0, 0.5)", a.alpha);
+    }
+    let prior = match &a.model {
+        Some(p) => Model::load(p)?,
+        None => Model::paper(),
+    };
+    let opts = ReadOptions { lenient: a.lenient };
+    let log = Log::read_with(&a.log, opts)?;
+    for s in &log.skipped {
+        eprintln!("diagnose: warning: {}: skipped {s}", log.source);
+    }
+    let w = match &a.withheld {
+        Some(p) => Some(Log::read_with(p, opts)?),
+        None => None,
+    };
+    let cfg = Config {
+        alpha: a.alpha,
+        folds: a.folds.max(2),
+        permutations: a.permutations.max(19),
+        seed: a.seed,
+        progress: true,
+        ..Config::default()
+    };
+    let d = diagnose(&log, w.as_ref(), &prior, &cfg)?;
+    report::write(&d, &a.out)?;
+    eprint!("{}", report::summary(&d));
+    eprintln!(
+        "diagnose: report written to {}",
+        a.out.join("report.md").display()
+    );
+    Ok(())
+}
+
+/// The settle rule diagnose inherits from identify's defaults (for the docs).
+pub fn default_settle() -> SettleRule {
+    identify::Config::default().settle
+}
