@@ -14,5 +14,6 @@ pub mod identify;
 pub mod log;
 pub mod packaging;
 pub mod paper;
+pub mod perf;
 pub mod plot;
 pub mod predict;
