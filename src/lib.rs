@@ -17,3 +17,4 @@ pub mod paper;
 pub mod perf;
 pub mod plot;
 pub mod predict;
+pub mod sweep;

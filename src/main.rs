@@ -28,6 +28,8 @@ enum Cmd {
     Inverse(magswarm::control_cli::InverseArgs),
     /// Linearise the plant at an operating point (A, B, C, D).
     Linearize(magswarm::control_cli::LinearizeArgs),
+    /// Monte Carlo of the seed's closed-loop tracking scenario under parameter uncertainty.
+    Sweep(magswarm::sweep::SweepArgs),
 }
 
 fn main() {
@@ -39,6 +41,7 @@ fn main() {
         Cmd::Identify(a) => magswarm::identify::run(a),
         Cmd::Inverse(a) => magswarm::control_cli::run_inverse(a),
         Cmd::Linearize(a) => magswarm::control_cli::run_linearize(a),
+        Cmd::Sweep(a) => magswarm::sweep::run(a.clone()),
     };
     if let Err(e) = result {
         eprintln!("magswarm: error: {e:#}");
