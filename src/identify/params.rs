@@ -1,32 +1,26 @@
-//! The parameters `identify` can fit: names (the seed's symbols, as in the model file),
-//! accessors on [`Model`], default bounds, and the transforms that make LM bounded.
+//! The parameters `identify` can fit: the rows of the model's parameter registry
+//! ([`magswarm_model::registry`]) that carry fit bounds, with the transforms that make LM
+//! bounded. A parameter added to the registry with a [`registry::Fit`] can be freed here by
+//! itself; nothing in this file lists parameters.
 
+use std::sync::LazyLock;
+
+use magswarm_model::registry;
 use magswarm_model::Model;
 
-/// Which part of the model a parameter belongs to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Group {
-    /// Steady map (5)-(7): fitted to the settled visit means.
-    Steady,
-    /// ODE (4): fitted to the transient rows.
-    Dynamic,
-}
-
+/// Which part of the model a parameter belongs to (the registry's groups). `identify` fits
+/// [`Group::Steady`] parameters to the settled visit means and every other group to the
+/// transient rows.
+pub use registry::Group;
 /// How LM's unconstrained variable u maps onto the bounded parameter.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Transform {
-    /// theta = exp(u): strictly positive scale parameters.
-    Log,
-    /// theta = lo + (hi - lo) (1 + sin u) / 2 (MINUIT's double-bounded transform).
-    Sin,
-}
+pub use registry::Transform;
 
-/// Static description of one fittable parameter.
+/// Static description of one fittable parameter (built from its registry row).
 #[derive(Debug, Clone, Copy)]
 pub struct ParamDef {
     /// Name (the seed's symbol, as in the model file).
     pub name: &'static str,
-    /// Steady or dynamic.
+    /// Part of the model.
     pub group: Group,
     /// Default lower bound.
     pub lo: f64,
@@ -37,55 +31,27 @@ pub struct ParamDef {
     /// True for the terms of the stiffness (7) that are power laws of the distance (the
     /// nearly collinear family the issue warns about).
     pub stiffness: bool,
+    /// The registry row (accessors, unit, physical range).
+    pub param: &'static registry::Param,
 }
 
-const fn d(
-    name: &'static str,
-    group: Group,
-    lo: f64,
-    hi: f64,
-    transform: Transform,
-    stiffness: bool,
-) -> ParamDef {
-    ParamDef {
-        name,
-        group,
-        lo,
-        hi,
-        transform,
-        stiffness,
-    }
-}
-
-use Group::{Dynamic as D, Steady as S};
-use Transform::{Log as L, Sin as B};
-
-/// Every parameter `identify` knows, in Table I order.
-pub const PARAMS: &[ParamDef] = &[
-    d("C_1", S, 1e-3, 1e3, L, false),
-    d("C_2", S, 1e-3, 1e3, L, false),
-    d("a_K1", S, 1e-6, 1e3, L, true),
-    d("a_K2", S, 1e-6, 1e3, L, true),
-    d("alpha_1", S, 0.0, 3.0, B, false),
-    d("alpha_2", S, 0.0, 3.0, B, false),
-    d("gamma_1", S, 0.0, 3.0, B, true),
-    d("gamma_2", S, 0.0, 3.0, B, true),
-    d("s_0", S, -10.0, 10.0, B, true),
-    d("a_G", S, -10.0, 10.0, B, true),
-    d("rho", S, 0.0, 3.0, B, true),
-    d("N", S, -20.0, 20.0, B, false),
-    d("q", S, 0.0, 5.0, B, false),
-    d("a_P", S, -10.0, 10.0, B, true),
-    d("mu_P", S, 0.0, 3.0, B, true),
-    d("c_P", S, -5.0, 5.0, B, false),
-    d("q_P", S, 0.0, 5.0, B, false),
-    d("K_tau", D, 1e-6, 1e3, L, false),
-    d("K_d1", D, 1e-6, 1e3, L, false),
-    d("K_d2", D, 1e-6, 1e3, L, false),
-    d("beta", D, 0.1, 10.0, B, false),
-    d("r1_min", D, 0.0, 50.0, B, false),
-    d("r2_min", D, 0.0, 50.0, B, false),
-];
+/// Every parameter `identify` knows: the registry's fittable rows, in registry order.
+pub static PARAMS: LazyLock<Vec<ParamDef>> = LazyLock::new(|| {
+    registry::fittable()
+        .map(|p| {
+            let f = p.fit.expect("fittable rows have fit bounds");
+            ParamDef {
+                name: p.name,
+                group: p.group,
+                lo: f.lo,
+                hi: f.hi,
+                transform: f.transform,
+                stiffness: f.stiffness,
+                param: p,
+            }
+        })
+        .collect()
+});
 
 /// Default free steady parameters: the axis gains and exponents, the curvature gains and the
 /// frequency term. The remaining stiffness terms are power laws of the same distance as the
@@ -109,46 +75,21 @@ pub fn known_names() -> String {
     PARAMS.iter().map(|p| p.name).collect::<Vec<_>>().join(", ")
 }
 
-fn slot<'a>(m: &'a mut Model, name: &str) -> &'a mut f64 {
-    let s = &mut m.steady;
-    let dy = &mut m.dynamics;
-    match name {
-        "C_1" => &mut s.C_1,
-        "C_2" => &mut s.C_2,
-        "a_K1" => &mut s.a_K1,
-        "a_K2" => &mut s.a_K2,
-        "alpha_1" => &mut s.alpha_1,
-        "alpha_2" => &mut s.alpha_2,
-        "gamma_1" => &mut s.gamma_1,
-        "gamma_2" => &mut s.gamma_2,
-        "s_0" => &mut s.s_0,
-        "a_G" => &mut s.a_G,
-        "rho" => &mut s.rho,
-        "N" => &mut s.N,
-        "q" => &mut s.q,
-        "a_P" => &mut s.a_P,
-        "mu_P" => &mut s.mu_P,
-        "c_P" => &mut s.c_P,
-        "q_P" => &mut s.q_P,
-        "K_tau" => &mut dy.K_tau,
-        "K_d1" => &mut dy.K_d1,
-        "K_d2" => &mut dy.K_d2,
-        "beta" => &mut dy.beta,
-        "r1_min" => &mut dy.r1_min,
-        "r2_min" => &mut dy.r2_min,
-        _ => panic!("unknown parameter {name}"),
+fn row(name: &str) -> &'static registry::Param {
+    match registry::find(name) {
+        Some(p) => p,
+        None => panic!("unknown parameter {name}"),
     }
 }
 
-/// Read a parameter of a model.
+/// Read a parameter of a model (any registry row, fittable or not).
 pub fn get(m: &Model, name: &str) -> f64 {
-    let mut c = m.clone();
-    *slot(&mut c, name)
+    (row(name).get)(m)
 }
 
-/// Write a parameter of a model.
+/// Write a parameter of a model (any registry row, fittable or not).
 pub fn set(m: &mut Model, name: &str, v: f64) {
-    *slot(m, name) = v;
+    (row(name).set)(m, v)
 }
 
 /// A free parameter with its (possibly overridden) bounds.
@@ -230,7 +171,7 @@ mod tests {
     #[test]
     fn get_set_every_param() {
         let mut m = Model::paper();
-        for p in PARAMS {
+        for p in PARAMS.iter() {
             let v = get(&m, p.name);
             set(&mut m, p.name, v + 0.5);
             assert_eq!(get(&m, p.name), v + 0.5, "{}", p.name);
@@ -239,7 +180,7 @@ mod tests {
 
     #[test]
     fn transforms_round_trip() {
-        for p in PARAMS {
+        for p in PARAMS.iter() {
             let f = Free::new(p.name).unwrap();
             let theta = get(&Model::paper(), p.name).clamp(f.lo, f.hi);
             let back = f.to_theta(f.to_u(theta));

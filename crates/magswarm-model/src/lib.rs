@@ -13,6 +13,8 @@
 //! - [`plant`]: the plant as a stateful object (inputs in, radii out) that the FMU, the
 //!   virtual lab and `predict` all drive;
 //! - [`model_file`]: the versioned JSON model file (`magswarm-model/1`);
+//! - [`registry`]: one table of every numeric parameter (name, unit, bounds, accessors),
+//!   which validation, the FMU's parameters and `identify` iterate over;
 //! - [`reconstruction`]: the constants Table I leaves out, and why they have their values.
 //!
 //! Units: inputs are SI (z_m in m, omega_m in rad/s); radii are in mm (Table I's unit for
@@ -29,6 +31,7 @@ pub mod model_file;
 pub mod params;
 pub mod plant;
 pub mod reconstruction;
+pub mod registry;
 pub mod steady;
 
 pub use envelope::{Envelope, Validity};

@@ -127,7 +127,8 @@ impl Model {
         std::fs::rename(&tmp, path).map_err(err)
     }
 
-    /// Check every value: finite and in its physical range. The first violation is returned
+    /// Check every value: finite and in its physical range (the parameters' ranges come from
+    /// [`crate::registry`]; the envelope's are checked here). The first violation is returned
     /// with its JSON path.
     pub fn validate(&self) -> Result<(), ModelError> {
         let mut c = Checker::default();
@@ -137,47 +138,11 @@ impl Model {
                 format!("unsupported schema {:?}, expected {SCHEMA:?}", self.schema),
             );
         }
-        let s = &self.steady;
-        c.pos("steady.C_1", s.C_1);
-        c.pos("steady.C_2", s.C_2);
-        c.range("steady.a_K1", s.a_K1, 0.0, 1e6);
-        c.range("steady.a_K2", s.a_K2, 0.0, 1e6);
-        c.range("steady.alpha_1", s.alpha_1, 0.0, 10.0);
-        c.range("steady.alpha_2", s.alpha_2, 0.0, 10.0);
-        c.range("steady.gamma_1", s.gamma_1, 0.0, 10.0);
-        c.range("steady.gamma_2", s.gamma_2, 0.0, 10.0);
-        c.range("steady.s_0", s.s_0, -1e6, 1e6);
-        c.range("steady.a_G", s.a_G, -1e6, 1e6);
-        c.range("steady.rho", s.rho, 0.0, 10.0);
-        c.range("steady.N", s.N, -100.0, 100.0);
-        c.range("steady.q", s.q, 0.0, 10.0);
-        c.range("steady.a_P", s.a_P, -1e6, 1e6);
-        c.range("steady.mu_P", s.mu_P, 0.0, 10.0);
-        c.range("steady.c_P", s.c_P, -1e3, 1e3);
-        c.range("steady.q_P", s.q_P, 0.0, 10.0);
-        c.pos("steady.f_ref", s.f_ref);
-        c.pos("steady.B_ref", s.B_ref);
-        let k = &self.conventions;
-        c.pos("conventions.k_unit_t2_per_m2", k.k_unit_t2_per_m2);
-        c.pos("conventions.g_unit_t_per_m", k.g_unit_t_per_m);
-        c.pos("conventions.s_floor", k.s_floor);
-        c.range("conventions.log_arg_floor", k.log_arg_floor, 1e-300, 1.0);
+        // Every numeric parameter: its physical range from the registry.
+        if let Err((path, message)) = crate::registry::check_all(self) {
+            c.fail(path, message);
+        }
         let m = &self.magnet;
-        c.range("magnet.radius_m", m.radius_m, 1e-4, 1.0);
-        c.range("magnet.remanence_t", m.remanence_t, 1e-3, 3.0);
-        c.range("magnet.z_offset_m", m.z_offset_m, -m.radius_m * 0.99, 1.0);
-        c.range("magnet.lateral_offset_m", m.lateral_offset_m, 0.0, 1.0);
-        let d = &self.dynamics;
-        c.range("dynamics.K_b1", d.K_b1, 0.0, 1e9);
-        c.range("dynamics.K_b2", d.K_b2, 0.0, 1e9);
-        c.range("dynamics.beta", d.beta, 0.1, 10.0);
-        c.range("dynamics.r1_min", d.r1_min, 0.0, 1e3);
-        c.range("dynamics.r2_min", d.r2_min, 0.0, 1e3);
-        c.range("dynamics.K_tau", d.K_tau, 0.0, 1e9);
-        c.range("dynamics.p", d.p, 0.0, 10.0);
-        c.range("dynamics.s_B", d.s_B, 0.0, 1e9);
-        c.range("dynamics.K_d1", d.K_d1, 0.0, 1e9);
-        c.range("dynamics.K_d2", d.K_d2, 0.0, 1e9);
         let e = &self.envelope;
         c.range("envelope.z_min_m", e.z_min_m, -m.radius_m * 0.99, 10.0);
         c.range("envelope.z_max_m", e.z_max_m, e.z_min_m, 10.0);
@@ -214,13 +179,6 @@ impl Checker {
             self.fail(path, format!("must be finite (got {v})"));
         } else if v < lo || v > hi {
             self.fail(path, format!("out of range: {v} not in [{lo}, {hi}]"));
-        }
-    }
-    fn pos(&mut self, path: &str, v: f64) {
-        if !v.is_finite() {
-            self.fail(path, format!("must be finite (got {v})"));
-        } else if v <= 0.0 {
-            self.fail(path, format!("must be > 0 (got {v})"));
         }
     }
 }
