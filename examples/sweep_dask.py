@@ -375,7 +375,11 @@ def main(argv=None) -> int:
                                        dashboard_address=None)
                 client = Client(cluster)
             try:
+                if cluster is not None:
+                    client.wait_for_workers(a.workers)
                 workers = len(client.scheduler_info()["workers"])
+                print(f"cluster up in {time.perf_counter() - t0:.2f} s ({workers} workers)", file=sys.stderr)
+                t0 = time.perf_counter()  # throughput below excludes the cluster's start
                 futures = [client.submit(run_chunk, c, a.seed, unc, fmu, pid_fmu, model_file, pure=False)
                            for c in chunks]
                 for fut in as_completed(futures):
