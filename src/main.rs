@@ -32,8 +32,41 @@ enum Cmd {
     Sweep(magswarm::sweep::SweepArgs),
 }
 
+/// Every output path of the command, checked (and missing folders created) before it runs.
+fn prepare_outputs(cmd: &Cmd) -> anyhow::Result<()> {
+    use magswarm::outputs::{prepare_dir, prepare_file};
+    match cmd {
+        Cmd::Paper(a) => {
+            if let Some(d) = &a.plots {
+                prepare_dir("--plots", d)?;
+            }
+        }
+        Cmd::Fmu(a) => {
+            if let Some(p) = &a.out {
+                prepare_file("--out", p)?;
+            }
+            if let Some(p) = &a.xml {
+                prepare_file("--xml", p)?;
+            }
+        }
+        Cmd::Predict(a) => prepare_file("--out", &a.out)?,
+        Cmd::Identify(a) => {
+            prepare_file("--out", &a.out)?;
+            if let Some(d) = &a.report {
+                prepare_dir("--report", d)?;
+            }
+        }
+        Cmd::Inverse(_) | Cmd::Linearize(_) => {}
+    }
+    Ok(())
+}
+
 fn main() {
     let cli = Cli::parse();
+    if let Err(e) = prepare_outputs(&cli.cmd) {
+        eprintln!("magswarm: error: {e:#}");
+        std::process::exit(2);
+    }
     let result = match &cli.cmd {
         Cmd::Paper(a) => magswarm::paper::run(a),
         Cmd::Fmu(a) => magswarm::packaging::run(a),

@@ -73,6 +73,15 @@ pub enum CosimError {
         #[source]
         source: fmi::Error,
     },
+    /// The archive is not an FMU this importer will unpack (zip-slip path, symbolic link,
+    /// zip bomb, missing modelDescription.xml, not a zip at all).
+    #[error("cannot import {}: {message}", path.display())]
+    BadArchive {
+        /// The .fmu.
+        path: PathBuf,
+        /// What is wrong, naming the entry.
+        message: String,
+    },
     /// The FMU is not what this importer can run (not FMI 2.0 Co-Simulation, missing
     /// symbols, a capability flag that is off).
     #[error("{0}")]

@@ -102,6 +102,8 @@ pub(crate) struct FmuInner {
     // Field order is drop order: the library is closed before its directory is removed.
     pub(crate) binding: Fmi2Binding,
     pub(crate) import: Fmi2Import,
+    /// Keeps the unpacked folder registered for removal at exit or on a signal until here.
+    pub(crate) _registration: super::extract::Registration,
     pub(crate) path: PathBuf,
     pub(crate) model_identifier: String,
     pub(crate) guid: CString,
@@ -147,11 +149,14 @@ impl Fmu {
     /// platform and check that it exports the FMI 2.0 Co-Simulation API.
     pub fn load(path: impl AsRef<Path>) -> Result<Fmu> {
         let path = path.as_ref().to_path_buf();
-        let import: Fmi2Import =
-            fmi::import::from_path(&path).map_err(|source| CosimError::Import {
-                path: path.clone(),
-                source,
-            })?;
+        // Unpacked by `extract` (checked entry by entry, removed on every way out), then
+        // handed to the `fmi` crate's import type.
+        let (unpacked, xml) = super::extract::unpack(&path)?;
+        let (dir, registration) = unpacked.into_parts();
+        let import = Fmi2Import::new(dir, &xml).map_err(|source| CosimError::Import {
+            path: path.clone(),
+            source,
+        })?;
         let md = import.model_description();
         if md.fmi_version.trim() != "2.0" {
             return Err(CosimError::Unsupported(format!(
@@ -254,6 +259,7 @@ impl Fmu {
             inner: Arc::new(FmuInner {
                 binding,
                 import,
+                _registration: registration,
                 path,
                 model_identifier,
                 guid,

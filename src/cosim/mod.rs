@@ -35,6 +35,7 @@
 //! ```
 
 mod error;
+pub mod extract;
 mod import;
 mod runner;
 mod slave;

@@ -68,6 +68,9 @@ pub struct SlaveOptions {
     pub echo: bool,
     /// Pass this GUID instead of the one in modelDescription.xml (to test an FMU's check).
     pub guid_override: Option<String>,
+    /// Pass this `fmuResourceLocation` instead of the unpacked FMU's resources folder (to
+    /// test an FMU's check).
+    pub resource_uri_override: Option<String>,
 }
 
 /// The log of one instance; `componentEnvironment` points at it.
@@ -245,6 +248,11 @@ impl FmuSlave {
                 .map_err(|_| CosimError::Usage("GUID contains a NUL byte".into()))?,
             None => fmu.inner.guid.clone(),
         };
+        let resource_uri = match &options.resource_uri_override {
+            Some(r) => CString::new(r.as_str())
+                .map_err(|_| CosimError::Usage("resource location contains a NUL byte".into()))?,
+            None => fmu.inner.resource_uri.clone(),
+        };
         let log = Box::new(LogBuffer {
             inner: Mutex::new((0, Vec::new())),
             count: AtomicUsize::new(0),
@@ -265,7 +273,7 @@ impl FmuSlave {
                 cname.as_ptr(),
                 binding::fmi2Type_fmi2CoSimulation,
                 guid.as_ptr(),
-                fmu.inner.resource_uri.as_ptr(),
+                resource_uri.as_ptr(),
                 &*callbacks,
                 options.visible as binding::fmi2Boolean,
                 options.logging_on as binding::fmi2Boolean,

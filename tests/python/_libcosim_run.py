@@ -25,7 +25,8 @@ def main() -> int:
 
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
-    log_output_level(CosimLogLevel.WARNING)  # the default prints FMI Library's debug chatter
+    # The default prints FMI Library's debug chatter; "log_level": "TRACE" asks for all of it.
+    log_output_level(getattr(CosimLogLevel, cfg.get("log_level", "WARNING")))
 
     from libcosimpy._internal import get_last_error_message
     from libcosimpy.CosimEnums import CosimErrorCode, CosimExecutionState

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use crate::abi::Fmi2Status;
 use crate::log::{Ctx, Logger, CAT_EVENTS};
 use crate::model::{Fmi2Err, FmuModel, InstantiateArgs, VarType, Variable};
-use crate::snapshot::ShellState;
+use crate::snapshot::{ShellState, Snapshot};
 use crate::state::{may_set, Func, Mode};
 use crate::table::Table;
 
@@ -34,6 +34,7 @@ pub struct Instance<M: FmuModel> {
     pub(crate) logger: Logger,
     pub(crate) resource_location: Option<String>,
     pub(crate) resource_dir: Option<PathBuf>,
+    pub(crate) packaged_resources: Option<PathBuf>,
     pub(crate) visible: bool,
     pub(crate) logging_on_at_instantiation: bool,
     pub(crate) shell: ShellState,
@@ -41,6 +42,20 @@ pub struct Instance<M: FmuModel> {
     /// C copies of the strings last returned by `fmi2GetString`: valid until the next
     /// `fmi2GetString` (or free), which is longer than the standard requires.
     pub(crate) strings: Vec<CString>,
+    /// Every FMU state handed out through this instance and not freed yet: only these are
+    /// accepted back (a handle of another instance, a freed one or garbage is refused
+    /// without being read), and `fmi2FreeInstance` frees the ones the importer did not.
+    pub(crate) states: Vec<*mut Snapshot<M>>,
+}
+
+impl<M: FmuModel> Drop for Instance<M> {
+    fn drop(&mut self) {
+        for s in std::mem::take(&mut self.states) {
+            // SAFETY: each pointer came from `Box::into_raw` in this instance and was removed
+            // from the list when freed, so it is live and owned here.
+            drop(unsafe { Box::from_raw(s) });
+        }
+    }
 }
 
 impl<M: FmuModel> Instance<M> {
@@ -64,6 +79,7 @@ impl<M: FmuModel> Instance<M> {
             instance_name: self.logger.instance_name(),
             resource_location: self.resource_location.as_deref(),
             resource_dir: self.resource_dir.as_deref(),
+            packaged_resources: self.packaged_resources.as_deref(),
             visible: self.visible,
             logging_on: self.logging_on_at_instantiation,
         }

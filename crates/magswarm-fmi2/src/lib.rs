@@ -104,6 +104,7 @@ pub mod abi;
 pub mod bytes;
 pub mod export;
 pub mod guid;
+pub mod host;
 pub mod instance;
 pub mod jacobian;
 pub mod log;

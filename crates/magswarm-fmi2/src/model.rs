@@ -619,6 +619,10 @@ pub struct InstantiateArgs<'a> {
     pub resource_location: Option<&'a str>,
     /// The same decoded to a local directory, if it was a decodable `file:` URI or path.
     pub resource_dir: Option<&'a Path>,
+    /// The `resources/` folder next to this binary's `binaries/` folder in the unpacked FMU,
+    /// if there is one (see [`crate::uri::packaged_resources`]): what the FMU was packaged
+    /// with, whatever the importer passed.
+    pub packaged_resources: Option<&'a Path>,
     /// `visible` (ignored by the shell).
     pub visible: bool,
     /// `loggingOn` at instantiation.

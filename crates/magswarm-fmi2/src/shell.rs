@@ -42,7 +42,51 @@ fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
 
 /// Drop a panic payload without letting a panicking destructor escape.
 fn drop_payload(payload: Box<dyn std::any::Any + Send>) {
-    let _ = catch_unwind(AssertUnwindSafe(move || drop(payload)));
+    let _ = barrier(move || drop(payload));
+}
+
+thread_local! {
+    /// How deep this thread is inside the shell's panic barrier.
+    static IN_BARRIER: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// The panic hook in force before the shell installed its own (called for panics outside
+/// the barrier, so a Rust host linking the shell keeps its own reporting).
+static PREVIOUS_HOOK: std::sync::OnceLock<
+    Box<dyn Fn(&std::panic::PanicHookInfo<'_>) + Sync + Send>,
+> = std::sync::OnceLock::new();
+static HOOK: std::sync::Once = std::sync::Once::new();
+
+/// Install (once) a panic hook that stays silent for panics inside the barrier: an FMU must
+/// never write to its host's stderr; the message reaches the importer through the logger
+/// instead. Panics elsewhere go to the previous hook. In the FMU's own shared library this
+/// hook belongs to the library's private copy of std, so the host's hook is not touched.
+fn quiet_panics() {
+    // `set_hook` panics when called while the thread is panicking (e.g. a Rust host freeing
+    // instances while unwinding): try again at a later call.
+    if std::thread::panicking() {
+        return;
+    }
+    HOOK.call_once(|| {
+        let _ = PREVIOUS_HOOK.set(std::panic::take_hook());
+        std::panic::set_hook(Box::new(|info| {
+            if IN_BARRIER.with(|d| d.get()) > 0 {
+                return;
+            }
+            if let Some(prev) = PREVIOUS_HOOK.get() {
+                prev(info);
+            }
+        }));
+    });
+}
+
+/// `catch_unwind` with the quiet hook in force: the panic barrier of every entry point.
+pub(crate) fn barrier<R>(f: impl FnOnce() -> R) -> std::thread::Result<R> {
+    quiet_panics();
+    IN_BARRIER.with(|d| d.set(d.get() + 1));
+    let r = catch_unwind(AssertUnwindSafe(f));
+    IN_BARRIER.with(|d| d.set(d.get().saturating_sub(1)));
+    r
 }
 
 /// The instance behind `c`, if it is one of ours and alive.
@@ -63,7 +107,7 @@ unsafe fn entry<M: FmuModel>(
         // Nothing to log through: the logger lives in the instance.
         return Fmi2Status::Error;
     };
-    let result = catch_unwind(AssertUnwindSafe(|| {
+    let result = barrier(|| {
         let i = &mut *inst;
         let mode = i.shell.mode;
         if !func.allowed_in(mode) {
@@ -78,9 +122,15 @@ unsafe fn entry<M: FmuModel>(
                 Func::DoStep if mode == Mode::Instantiated => {
                     " (call fmi2EnterInitializationMode and fmi2ExitInitializationMode first)"
                 }
-                _ if mode == Mode::Error => " (after fmi2Error only getters, fmi2SetFMUstate, fmi2Reset and fmi2FreeInstance are allowed)",
-                _ if mode == Mode::Fatal => " (after fmi2Fatal only fmi2FreeInstance is allowed)",
                 _ => "",
+            };
+            let hint = match mode {
+                Mode::Error | Mode::Fatal => format!(
+                    "{hint} (allowed in state {}: {})",
+                    mode.name(),
+                    Func::allowed_list(mode)
+                ),
+                _ => hint.to_string(),
             };
             return i.fail(
                 func,
@@ -92,19 +142,19 @@ unsafe fn entry<M: FmuModel>(
             );
         }
         body(i)
-    }));
+    });
     match result {
         Ok(s) => s,
         Err(payload) => {
             let msg = panic_message(&*payload);
             drop_payload(payload);
-            let logged = catch_unwind(AssertUnwindSafe(|| {
+            let logged = barrier(|| {
                 (*inst).fail(
                     func,
                     Fmi2Status::Error,
                     format!("internal error: the model panicked: {msg}"),
                 )
-            }));
+            });
             match logged {
                 Ok(s) => s,
                 Err(p) => {
@@ -206,7 +256,7 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
         );
         std::ptr::null_mut()
     };
-    let result = catch_unwind(AssertUnwindSafe(|| -> Result<Fmi2Component, String> {
+    let result = barrier(|| -> Result<Fmi2Component, String> {
         let name = match name.as_deref() {
             Some(n) if !n.is_empty() => n.to_string(),
             Some(_) => return Err("instanceName must not be empty".into()),
@@ -254,10 +304,30 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
                 &format!("fmi2Instantiate: {p}; continuing without resources"),
             );
         }
+        // A location that names no folder is the importer's mistake: say so, and give the
+        // model no resource folder (it decides whether it can do without).
+        let dir = match dir {
+            Some(d) if !d.is_dir() => {
+                logger.log(
+                    Fmi2Status::Warning,
+                    crate::log::CAT_WARNING,
+                    &format!(
+                        "fmi2Instantiate: resource location {:?} names the folder {} which does \
+                         not exist; continuing without resources",
+                        location.as_deref().unwrap_or_default(),
+                        d.display()
+                    ),
+                );
+                None
+            }
+            d => d,
+        };
+        let packaged = crate::uri::packaged_resources();
         let args = InstantiateArgs {
             instance_name: &name,
             resource_location: location.as_deref(),
             resource_dir: dir.as_deref(),
+            packaged_resources: packaged.as_deref(),
             visible: visible != 0,
             logging_on: logging_on != 0,
         };
@@ -279,13 +349,15 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
             ),
             resource_location: location.clone(),
             resource_dir: dir.clone(),
+            packaged_resources: packaged.clone(),
             visible: visible != 0,
             logging_on_at_instantiation: logging_on != 0,
             shell: ShellState::fresh(),
             model,
             strings: Vec::new(),
+            states: Vec::new(),
         })) as Fmi2Component)
-    }));
+    });
     match result {
         Ok(Ok(c)) => {
             let i = &*(c as *const Instance<M>);
@@ -323,10 +395,10 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
 /// `c` must be NULL or a pointer returned by [`fmi2_instantiate`] for the same `M`.
 pub unsafe fn fmi2_free_instance<M: FmuModel>(c: Fmi2Component) {
     let Some(inst) = instance::<M>(c) else { return };
-    let r = catch_unwind(AssertUnwindSafe(|| {
+    let r = barrier(|| {
         (*inst).magic = 0;
         drop(Box::from_raw(inst));
-    }));
+    });
     if let Err(p) = r {
         drop_payload(p);
     }
@@ -506,8 +578,10 @@ pub unsafe fn fmi2_set_string<M: FmuModel>(
     })
 }
 
-/// The snapshot behind an `fmi2FMUstate`, if it is one of ours, alive and of this model.
-unsafe fn snapshot_of<M: FmuModel>(
+/// The snapshot behind an `fmi2FMUstate`, if this instance handed it out and it was not
+/// freed. The pointer is compared with the instance's list before it is read, so a handle
+/// of another instance, a freed handle or garbage is refused without touching its memory.
+fn snapshot_of<M: FmuModel>(
     i: &mut Instance<M>,
     f: Func,
     s: Fmi2FmuState,
@@ -515,19 +589,13 @@ unsafe fn snapshot_of<M: FmuModel>(
     if s.is_null() {
         return Err(null_arg(i, f, "FMUstate"));
     }
-    if (s as *const u64).read() != SNAPSHOT_MAGIC {
-        return Err(i.fail(
-            f,
-            Fmi2Status::Error,
-            "FMUstate is not a (live) FMU state of this FMU",
-        ));
-    }
     let snap = s as *mut Snapshot<M>;
-    if (*snap).guid != i.guid {
+    if !i.states.contains(&snap) {
         return Err(i.fail(
             f,
             Fmi2Status::Error,
-            "FMUstate belongs to a different FMU (GUID mismatch)",
+            "FMUstate is not an FMU state of this instance (freed already, made by another \
+             instance, or not an FMU state)",
         ));
     }
     Ok(snap)
@@ -555,7 +623,9 @@ pub unsafe fn fmi2_get_fmu_state<M: FmuModel>(
                 model: i.model.clone(),
                 cached: None,
             });
-            *state = Box::into_raw(snap) as Fmi2FmuState;
+            let p = Box::into_raw(snap);
+            i.states.push(p);
+            *state = p as Fmi2FmuState;
         } else {
             let snap = match snapshot_of(i, f, *state) {
                 Ok(s) => s,
@@ -606,6 +676,7 @@ pub unsafe fn fmi2_free_fmu_state<M: FmuModel>(
             Ok(s) => s,
             Err(st) => return st,
         };
+        i.states.retain(|&p| p != snap);
         (*snap).magic = 0;
         drop(Box::from_raw(snap));
         *state = std::ptr::null_mut();
@@ -721,7 +792,9 @@ pub unsafe fn fmi2_deserialize_fmu_state<M: FmuModel>(
                     model,
                     cached: None,
                 });
-                *state = Box::into_raw(snap) as Fmi2FmuState;
+                let p = Box::into_raw(snap);
+                i.states.push(p);
+                *state = p as Fmi2FmuState;
                 Fmi2Status::Ok
             }
             Err(e) => {

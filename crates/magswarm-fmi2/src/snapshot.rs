@@ -107,6 +107,42 @@ fn get_opt(r: &mut ByteReader<'_>) -> Result<Option<f64>, Fmi2Err> {
     Ok(some.then_some(x))
 }
 
+/// A deserialized shell state must be one the shell could have saved: the checksum only
+/// proves the bytes were not damaged, not that whoever wrote them was honest.
+fn validate_shell(
+    mode: Mode,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    tolerance: Option<f64>,
+) -> Result<(), Fmi2Err> {
+    let bad = |m: String| Err(Fmi2Err::error(format!("serialized FMU state: {m}")));
+    if mode == Mode::Fatal {
+        // fmi2GetFMUstate is refused in Fatal, so no genuine state is in it.
+        return bad("mode Fatal cannot have been saved".into());
+    }
+    if !time.is_finite() || !start_time.is_finite() {
+        return bad(format!("non-finite time {time} or start time {start_time}"));
+    }
+    let slack = crate::instance::TIME_TOLERANCE * start_time.abs().max(time.abs()).max(1.0);
+    if time < start_time - slack {
+        return bad(format!("time {time} is before the start time {start_time}"));
+    }
+    if let Some(stop) = stop_time {
+        if !(stop.is_finite() && stop >= start_time && time <= stop + slack) {
+            return bad(format!(
+                "stop time {stop} is inconsistent with start time {start_time} and time {time}"
+            ));
+        }
+    }
+    if let Some(tol) = tolerance {
+        if !(tol.is_finite() && tol > 0.0) {
+            return bad(format!("tolerance {tol} must be finite and > 0"));
+        }
+    }
+    Ok(())
+}
+
 /// Validate and decode bytes from [`serialize`]. `template` is a clone of the live model,
 /// overwritten by [`FmuModel::deserialize_state`].
 pub fn deserialize<M: FmuModel>(
@@ -155,9 +191,7 @@ pub fn deserialize<M: FmuModel>(
     let tolerance = get_opt(&mut r)?;
     let payload = r.bytes()?;
     r.finish()?;
-    if !time.is_finite() || !start_time.is_finite() {
-        return Err(Fmi2Err::error("serialized FMU state has a non-finite time"));
-    }
+    validate_shell(mode, time, start_time, stop_time, tolerance)?;
     template.deserialize_state(payload)?;
     Ok((
         ShellState {

@@ -143,6 +143,56 @@ impl Func {
         }
     }
 
+    /// Every function, in the order of the standard's table.
+    pub const ALL: [Func; 31] = [
+        Func::SetDebugLogging,
+        Func::FreeInstance,
+        Func::SetupExperiment,
+        Func::EnterInitializationMode,
+        Func::ExitInitializationMode,
+        Func::Terminate,
+        Func::Reset,
+        Func::GetReal,
+        Func::GetInteger,
+        Func::GetBoolean,
+        Func::GetString,
+        Func::SetReal,
+        Func::SetInteger,
+        Func::SetBoolean,
+        Func::SetString,
+        Func::GetFmuState,
+        Func::SetFmuState,
+        Func::FreeFmuState,
+        Func::SerializedFmuStateSize,
+        Func::SerializeFmuState,
+        Func::DeSerializeFmuState,
+        Func::GetDirectionalDerivative,
+        Func::SetRealInputDerivatives,
+        Func::GetRealOutputDerivatives,
+        Func::DoStep,
+        Func::CancelStep,
+        Func::GetStatus,
+        Func::GetRealStatus,
+        Func::GetIntegerStatus,
+        Func::GetBooleanStatus,
+        Func::GetStringStatus,
+    ];
+
+    /// The functions allowed in `mode`, as text for messages ("a, b and c"), read from
+    /// [`Func::allowed_in`] so the message and the table cannot disagree.
+    pub fn allowed_list(mode: Mode) -> String {
+        let names: Vec<&str> = Func::ALL
+            .iter()
+            .filter(|f| f.allowed_in(mode))
+            .map(|f| f.name())
+            .collect();
+        match names.split_last() {
+            None => "nothing".to_string(),
+            Some((last, [])) => last.to_string(),
+            Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+        }
+    }
+
     /// Whether the standard allows this call in `mode` (the CS calling-sequence table).
     pub fn allowed_in(self, mode: Mode) -> bool {
         use Mode::*;
@@ -154,8 +204,9 @@ impl Func {
             Func::SetDebugLogging | Func::FreeInstance | Func::Reset => true,
             Func::SetupExperiment | Func::EnterInitializationMode => mode == Instantiated,
             Func::ExitInitializationMode => mode == InitializationMode,
-            // Error too: importers (libcosim) terminate before freeing a failed instance.
-            Func::Terminate => matches!(mode, StepComplete | StepFailed | Error),
+            // Not in Error: there the standard allows only getters, the FMU-state functions,
+            // fmi2Reset and fmi2FreeInstance (plus fmi2SetDebugLogging).
+            Func::Terminate => matches!(mode, StepComplete | StepFailed),
             Func::GetReal | Func::GetInteger | Func::GetBoolean | Func::GetString => {
                 matches!(
                     mode,
@@ -284,13 +335,28 @@ mod tests {
             Func::Reset,
             Func::SetFmuState,
             Func::FreeInstance,
-            Func::Terminate,
         ] {
             assert!(f.allowed_in(Mode::Error), "{f:?}");
         }
-        for f in [Func::SetReal, Func::DoStep, Func::ExitInitializationMode] {
+        for f in [
+            Func::SetReal,
+            Func::DoStep,
+            Func::ExitInitializationMode,
+            Func::Terminate,
+        ] {
             assert!(!f.allowed_in(Mode::Error), "{f:?}");
         }
+    }
+
+    #[test]
+    fn allowed_list_reads_the_table() {
+        let e = Func::allowed_list(Mode::Error);
+        assert!(e.contains("fmi2GetReal") && e.contains("fmi2Reset"), "{e}");
+        assert!(
+            !e.contains("fmi2Terminate") && !e.contains("fmi2DoStep"),
+            "{e}"
+        );
+        assert_eq!(Func::allowed_list(Mode::Fatal), "fmi2FreeInstance");
     }
 
     #[test]

@@ -67,11 +67,60 @@ pub fn resource_dir(location: &str) -> Result<Option<PathBuf>, UriError> {
     Ok(Some(trim_trailing_slash(path)))
 }
 
+/// The `resources/` folder of the unpacked FMU this code was loaded from, if it runs from
+/// `<fmu>/binaries/<platform>/<id>.so` and that folder exists. Lets an FMU that was packaged
+/// with resources notice that the importer pointed it somewhere else.
+pub fn packaged_resources() -> Option<PathBuf> {
+    let lib = own_library_path()?;
+    let platform = lib.parent()?;
+    let binaries = platform.parent()?;
+    if binaries.file_name()? != "binaries" {
+        return None;
+    }
+    let res = binaries.parent()?.join("resources");
+    res.is_dir().then_some(res)
+}
+
+#[cfg(unix)]
+fn own_library_path() -> Option<PathBuf> {
+    use std::ffi::{c_char, c_int, c_void, CStr};
+    use std::os::unix::ffi::OsStrExt;
+    #[repr(C)]
+    struct DlInfo {
+        dli_fname: *const c_char,
+        dli_fbase: *mut c_void,
+        dli_sname: *const c_char,
+        dli_saddr: *mut c_void,
+    }
+    extern "C" {
+        fn dladdr(addr: *const c_void, info: *mut DlInfo) -> c_int;
+    }
+    let mut info = DlInfo {
+        dli_fname: std::ptr::null(),
+        dli_fbase: std::ptr::null_mut(),
+        dli_sname: std::ptr::null(),
+        dli_saddr: std::ptr::null_mut(),
+    };
+    // SAFETY: dladdr only reads the address (a function of this library) and fills `info`.
+    let ok = unsafe { dladdr(own_library_path as *const c_void, &mut info) };
+    if ok == 0 || info.dli_fname.is_null() {
+        return None;
+    }
+    // SAFETY: on success dli_fname is a NUL-terminated path owned by the loader.
+    let name = unsafe { CStr::from_ptr(info.dli_fname) };
+    Some(PathBuf::from(std::ffi::OsStr::from_bytes(name.to_bytes())))
+}
+
+#[cfg(not(unix))]
+fn own_library_path() -> Option<PathBuf> {
+    None
+}
+
 fn strip_prefix_ci<'a>(s: &'a str, prefix: &str) -> Option<&'a str> {
-    if s.len() >= prefix.len() && s[..prefix.len()].eq_ignore_ascii_case(prefix) {
-        Some(&s[prefix.len()..])
-    } else {
-        None
+    // `get`, not indexing: the location may start with a multi-byte character.
+    match s.get(..prefix.len()) {
+        Some(head) if head.eq_ignore_ascii_case(prefix) => s.get(prefix.len()..),
+        _ => None,
     }
 }
 
@@ -184,6 +233,14 @@ mod tests {
         assert_eq!(dir("file:///tmp/a%2fb"), PathBuf::from("/tmp/a/b"));
         assert!(resource_dir("file:///tmp/bad%2").is_err());
         assert!(resource_dir("file:///tmp/bad%zz").is_err());
+    }
+
+    #[test]
+    fn multi_byte_text_is_not_sliced_inside_a_character() {
+        for loc in ["\u{fffd}\u{fffd}\u{fffd}", "éééé", "file:éé", "fil\u{e9}:x"] {
+            let _ = resource_dir(loc);
+        }
+        assert_eq!(dir("éééé"), PathBuf::from("éééé"));
     }
 
     #[test]

@@ -110,7 +110,14 @@ fn instantiate_named(log: &Log, name: &str, logging_on: bool) -> Option<Fmu> {
     let cb = Box::new(callbacks(log));
     let guid = cs(&magswarm_fmi2::guid::<Lag>());
     let name = cs(name);
-    let res = cs("file:///tmp/some%20dir/resources/");
+    // An existing folder (a missing one is a warning), with a percent-escaped space and a
+    // trailing slash.
+    let dir = std::env::temp_dir().join("magswarm fmi2 abi/resources");
+    std::fs::create_dir_all(&dir).unwrap();
+    let res = cs(&format!(
+        "file://{}/",
+        dir.display().to_string().replace(' ', "%20")
+    ));
     let c = unsafe {
         fmi2Instantiate(
             name.as_ptr(),
@@ -978,6 +985,10 @@ fn debug_logging_categories() {
     // loggingOn at instantiation enables model categories too.
     let log2 = Log::default();
     let _g = instantiate_named(&log2, "loud", true).unwrap();
-    assert!(log2.has(OK, "logLag", "some dir"), "{:?}", log2.entries());
+    assert!(
+        log2.has(OK, "logLag", "magswarm fmi2 abi"),
+        "{:?}",
+        log2.entries()
+    );
     assert!(log2.has(OK, "logEvents", "instantiated"));
 }

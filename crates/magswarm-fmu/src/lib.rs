@@ -72,6 +72,11 @@ pub mod vr {
 
 /// Default inputs: the seed's mid-envelope operating point (z_m 8.5 mm, f 4 Hz).
 pub const Z_START: f64 = 0.0085;
+/// Largest `z_m` accepted [m]: far beyond the envelope (23.5 mm) the field is numerically
+/// zero and the model's outputs stop being numbers.
+pub const MAX_Z_M: f64 = 1.0;
+/// Largest `|omega_m|` accepted [rad/s] (about 1.6 kHz; the envelope ends at 10 Hz).
+pub const MAX_OMEGA: f64 = 1e4;
 /// Default field angular velocity [rad/s] (4 Hz).
 pub const OMEGA_START: f64 = 4.0 * std::f64::consts::TAU;
 
@@ -318,12 +323,38 @@ pub struct MagSwarm {
 impl MagSwarm {
     /// A fresh instance whose defaults come from `resource_dir/model.json` if present.
     pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarm, Fmi2Err> {
+        Self::with_resources(resource_dir, None)
+    }
+
+    /// As [`MagSwarm::new`], knowing the `resources/` folder this FMU was packaged with
+    /// (`packaged`): if that holds a model but `resource_dir` does not, the importer passed a
+    /// wrong resource location and the built-in model would be the wrong plant, so this is
+    /// an error naming both folders.
+    pub fn with_resources(
+        resource_dir: Option<&Path>,
+        packaged: Option<&Path>,
+    ) -> Result<MagSwarm, Fmi2Err> {
+        let baked = packaged
+            .map(|d| d.join(RESOURCE_MODEL))
+            .filter(|p| p.is_file());
         let (default_model, default_source) = match resource_dir.map(|d| d.join(RESOURCE_MODEL)) {
             Some(p) if p.is_file() => (
                 Model::load(&p).map_err(|e| Fmi2Err::error(format!("resources: {e}")))?,
                 p.display().to_string(),
             ),
-            _ => (Model::paper(), "built-in paper model".to_string()),
+            _ => {
+                if let Some(b) = baked {
+                    return Err(Fmi2Err::error(format!(
+                        "this FMU was packaged with the model {} but the resource location \
+                         passed to fmi2Instantiate ({}) holds no {RESOURCE_MODEL}; refusing to \
+                         simulate the built-in paper model instead (pass the unpacked FMU's \
+                         resources folder as fmuResourceLocation)",
+                        b.display(),
+                        resource_dir.map_or("none".to_string(), |d| d.display().to_string())
+                    )));
+                }
+                (Model::paper(), "built-in paper model".to_string())
+            }
         };
         Ok(MagSwarm {
             model: default_model.clone(),
@@ -400,6 +431,80 @@ impl MagSwarm {
         }
     }
 
+    /// Every output finite, or an error naming the inputs: an importer must never read NaN
+    /// or inf after a call that returned OK or Warning.
+    fn check_outputs(&mut self, when: &str) -> Result<(), Fmi2Err> {
+        let (z, w) = (self.z_m, self.omega);
+        let o = self.plant().outputs();
+        let sp = o.steady;
+        let all = [
+            ("r1", o.r1),
+            ("r2", o.r2),
+            ("r1_ss", sp.r1),
+            ("r2_ss", sp.r2),
+            ("S_x", sp.s_x),
+            ("S_y", sp.s_y),
+            ("B", sp.field.b),
+            ("g_z", sp.field.g_z),
+            ("k_xx", sp.field.k_xx),
+            ("k_yy", sp.field.k_yy),
+        ];
+        match all.iter().find(|(_, x)| !x.is_finite()) {
+            None => Ok(()),
+            Some((name, x)) => Err(Fmi2Err::error(format!(
+                "{when}: the model cannot be evaluated at z_m = {:e} mm, omega_m = {w:e} rad/s \
+                 ({name} = {x}); set inputs the model can evaluate (validated envelope z_m {}-{} \
+                 mm, f {}-{} Hz)",
+                z * 1e3,
+                self.model.envelope.z_min_m * 1e3,
+                self.model.envelope.z_max_m * 1e3,
+                self.model.envelope.f_min_hz,
+                self.model.envelope.f_max_hz
+            ))),
+        }
+    }
+
+    /// A restored state must be one the FMU could have reached (the checksum proves the
+    /// bytes intact, not honest): the same rules as set values.
+    fn validate_restored(&self) -> Result<(), Fmi2Err> {
+        let bad = |m: String| Err(Fmi2Err::error(format!("FMU state: {m}")));
+        let floor = -self.model.magnet.z_offset_m;
+        if !(self.z_m > floor && self.z_m.is_finite()) {
+            return bad(format!(
+                "z_m = {} m would put the swarm inside the magnet",
+                self.z_m
+            ));
+        }
+        if !self.omega.is_finite() {
+            return bad(format!("omega_m = {} is not finite", self.omega));
+        }
+        if !self.r_start.iter().all(|r| r.is_finite() && *r > 0.0) {
+            return bad(format!("r_start = {:?} must be positive", self.r_start));
+        }
+        if let Some(t) = self.rtol {
+            if !(t > 0.0 && t < 1.0) {
+                return bad(format!("tolerance {t} must be in (0, 1)"));
+            }
+        }
+        if let Some(p) = &self.plant {
+            let snap = p.snapshot();
+            let finite = snap
+                .inputs
+                .iter()
+                .chain(&snap.r)
+                .chain(&snap.tol)
+                .chain([&snap.t, &snap.h_next])
+                .all(|x| x.is_finite());
+            if !finite || snap.r.iter().any(|r| *r <= 0.0 || *r > 1e6) || snap.h_next <= 0.0 {
+                return bad(format!(
+                    "plant state r = {:?} mm, step {} s is not one the integrator reaches",
+                    snap.r, snap.h_next
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Jacobian row of an unknown with respect to the knowns z_m, omega_m, r1, r2 (SI).
     fn jac_row(&mut self, unknown: u32) -> Result<[f64; 4], Fmi2Err> {
         let plant = self.plant();
@@ -450,7 +555,7 @@ impl FmuModel for MagSwarm {
     }
 
     fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
-        let m = MagSwarm::new(args.resource_dir)?;
+        let m = MagSwarm::with_resources(args.resource_dir, args.packaged_resources)?;
         ctx.debug("logModel", format!("default model: {}", m.default_source));
         Ok(m)
     }
@@ -476,7 +581,7 @@ impl FmuModel for MagSwarm {
         self.invalidate();
         self.plant();
         self.check_envelope(ctx);
-        Ok(())
+        self.check_outputs("fmi2ExitInitializationMode")
     }
 
     fn do_step(&mut self, ctx: &mut Ctx<'_>, _current_time: f64, step: f64) -> Result<(), Fmi2Err> {
@@ -490,7 +595,8 @@ impl FmuModel for MagSwarm {
                 w.abs() / std::f64::consts::TAU,
                 plant.validity().describe()
             ))
-        })
+        })?;
+        self.check_outputs("fmi2DoStep")
     }
 
     fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
@@ -547,9 +653,26 @@ impl FmuModel for MagSwarm {
                         self.model.envelope.z_max_m * 1e3
                     )));
                 }
+                if value > MAX_Z_M {
+                    return Err(Fmi2Err::error(format!(
+                        "z_m = {value:e} m is beyond {MAX_Z_M} m, where the field model has \
+                         nothing left to say (validated envelope {}-{} mm)",
+                        self.model.envelope.z_min_m * 1e3,
+                        self.model.envelope.z_max_m * 1e3
+                    )));
+                }
                 self.z_m = value
             }
-            vr::OMEGA_M => self.omega = value,
+            vr::OMEGA_M => {
+                if value.abs() > MAX_OMEGA {
+                    return Err(Fmi2Err::error(format!(
+                        "omega_m = {value:e} rad/s is beyond +-{MAX_OMEGA} rad/s (validated \
+                         envelope {}-{} Hz)",
+                        self.model.envelope.f_min_hz, self.model.envelope.f_max_hz
+                    )));
+                }
+                self.omega = value
+            }
             vr::R1_START => {
                 self.r_start[0] = value;
                 self.invalidate();
@@ -664,15 +787,18 @@ impl FmuModel for MagSwarm {
             None
         };
         rd.finish()?;
-        self.model = model;
-        self.model_file = model_file;
-        self.z_m = z_m;
-        self.omega = omega;
-        self.settle_at_start = settle;
-        self.r_start = r_start;
-        self.rtol = has_rtol.then_some(rtol);
-        self.outside = outside;
-        self.plant = plant;
+        let mut candidate = self.clone();
+        candidate.model = model;
+        candidate.model_file = model_file;
+        candidate.z_m = z_m;
+        candidate.omega = omega;
+        candidate.settle_at_start = settle;
+        candidate.r_start = r_start;
+        candidate.rtol = has_rtol.then_some(rtol);
+        candidate.outside = outside;
+        candidate.plant = plant;
+        candidate.validate_restored()?;
+        *self = candidate;
         Ok(())
     }
 

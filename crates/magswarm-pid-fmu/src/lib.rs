@@ -163,6 +163,9 @@ pub struct ParamSpec {
     pub display_unit: Option<&'static str>,
     /// Tunable while stepping (the gains).
     pub tunable: bool,
+    /// Values accepted (SI, inclusive): anything outside is refused when set, read from a
+    /// configuration or restored from a state, so no absurd value reaches the arithmetic.
+    pub range: (f64, f64),
     /// Description (names the `PidConfig` field).
     pub description: &'static str,
     /// SI value from a configuration.
@@ -173,60 +176,108 @@ pub struct ParamSpec {
 
 const MM: f64 = 1e-3;
 
+/// Most controller samples one `fmi2DoStep` may take (at about 13 us per sample, about a
+/// second of work): a longer communication step is refused with a message naming this limit,
+/// so one call never blocks the importer for minutes.
+pub const MAX_SAMPLES_PER_STEP: u64 = 100_000;
+/// Smallest accepted `sample_time` [s].
+pub const MIN_SAMPLE_TIME: f64 = 1e-6;
+/// Largest accepted magnitude of a radius input (`r1`, `r2`, `r1_ref`, `r2_ref`) [m]: the
+/// swarm is millimetres across, so anything beyond a metre is a broken signal.
+pub const MAX_RADIUS: f64 = 1.0;
+/// Largest accepted magnitude of `z_start` [m].
+pub const MAX_Z_START: f64 = 1.0;
+/// Largest accepted magnitude of `omega_start` [rad/s].
+pub const MAX_OMEGA_START: f64 = 1e5;
+/// Largest accepted magnitude of the experiment's start time [s].
+pub const MAX_TIME: f64 = 1e12;
+
+/// Whether every numeric parameter of `cfg` lies in its [`ParamSpec::range`] and the
+/// configuration is consistent ([`PidConfig::validate`]); the error names the parameter.
+pub fn check_config(cfg: &PidConfig) -> Result<(), Fmi2Err> {
+    for p in PARAMS {
+        check_param(p, (p.get)(cfg))?;
+    }
+    cfg.validate()
+        .map_err(|e| Fmi2Err::error(format!("controller configuration: {e}")))
+}
+
+fn check_param(p: &ParamSpec, v: f64) -> Result<(), Fmi2Err> {
+    let (lo, hi) = p.range;
+    if v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(Fmi2Err::error(format!(
+            "{} = {v} {} is outside the accepted range [{lo}, {hi}] {}",
+            p.name, p.unit, p.unit
+        )))
+    }
+}
+
+fn check_abs(name: &str, v: f64, max: f64, unit: &str) -> Result<(), Fmi2Err> {
+    if v.is_finite() && v.abs() <= max {
+        Ok(())
+    } else {
+        Err(Fmi2Err::error(format!(
+            "{name} = {v} {unit} is outside the accepted range [-{max}, {max}] {unit}"
+        )))
+    }
+}
+
 /// Numeric parameters in value-reference order (vr = PARAM_BASE + index).
 pub static PARAMS: &[ParamSpec] = &[
-    ParamSpec { name: "sample_time", unit: "s", display_unit: None, tunable: false,
+    ParamSpec { name: "sample_time", unit: "s", display_unit: None, tunable: false, range: (MIN_SAMPLE_TIME, 3600.0),
         description: "controller sample time (sample_time_s); use it as the communication step",
         get: |c| c.sample_time_s, set: |c, v| c.sample_time_s = v },
-    ParamSpec { name: "kp_r1", unit: "1", display_unit: None, tunable: true,
+    ParamSpec { name: "kp_r1", unit: "1", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "proportional gain of r1 in radius space, mm per mm (gains.kp[0])",
         get: |c| c.gains.kp[0], set: |c, v| c.gains.kp[0] = v },
-    ParamSpec { name: "kp_r2", unit: "1", display_unit: None, tunable: true,
+    ParamSpec { name: "kp_r2", unit: "1", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "proportional gain of r2 (gains.kp[1])",
         get: |c| c.gains.kp[1], set: |c, v| c.gains.kp[1] = v },
-    ParamSpec { name: "ki_r1", unit: "1/s", display_unit: None, tunable: true,
+    ParamSpec { name: "ki_r1", unit: "1/s", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "integral gain of r1 (gains.ki[0])",
         get: |c| c.gains.ki[0], set: |c, v| c.gains.ki[0] = v },
-    ParamSpec { name: "ki_r2", unit: "1/s", display_unit: None, tunable: true,
+    ParamSpec { name: "ki_r2", unit: "1/s", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "integral gain of r2 (gains.ki[1])",
         get: |c| c.gains.ki[1], set: |c, v| c.gains.ki[1] = v },
-    ParamSpec { name: "kd_r1", unit: "s", display_unit: None, tunable: true,
+    ParamSpec { name: "kd_r1", unit: "s", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "derivative gain of r1 (gains.kd[0])",
         get: |c| c.gains.kd[0], set: |c, v| c.gains.kd[0] = v },
-    ParamSpec { name: "kd_r2", unit: "s", display_unit: None, tunable: true,
+    ParamSpec { name: "kd_r2", unit: "s", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "derivative gain of r2 (gains.kd[1])",
         get: |c| c.gains.kd[1], set: |c, v| c.gains.kd[1] = v },
-    ParamSpec { name: "derivative_filter", unit: "s", display_unit: None, tunable: true,
+    ParamSpec { name: "derivative_filter", unit: "s", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "time constant of the derivative's first-order filter (gains.derivative_filter_s)",
         get: |c| c.gains.derivative_filter_s, set: |c, v| c.gains.derivative_filter_s = v },
-    ParamSpec { name: "tracking_time", unit: "s", display_unit: None, tunable: true,
+    ParamSpec { name: "tracking_time", unit: "s", display_unit: None, tunable: true, range: (0.0, 1e6),
         description: "anti-windup back-calculation time constant, 0 disables (gains.tracking_time_s)",
         get: |c| c.gains.tracking_time_s, set: |c, v| c.gains.tracking_time_s = v },
-    ParamSpec { name: "z_min", unit: "m", display_unit: Some("mm"), tunable: false,
+    ParamSpec { name: "z_min", unit: "m", display_unit: Some("mm"), tunable: false, range: (-1.0, 1.0),
         description: "smallest commanded z_m (limits.z_min_mm)",
         get: |c| c.limits.z_min_mm * MM, set: |c, v| c.limits.z_min_mm = v / MM },
-    ParamSpec { name: "z_max", unit: "m", display_unit: Some("mm"), tunable: false,
+    ParamSpec { name: "z_max", unit: "m", display_unit: Some("mm"), tunable: false, range: (-1.0, 1.0),
         description: "largest commanded z_m (limits.z_max_mm)",
         get: |c| c.limits.z_max_mm * MM, set: |c, v| c.limits.z_max_mm = v / MM },
-    ParamSpec { name: "f_min", unit: "Hz", display_unit: None, tunable: false,
+    ParamSpec { name: "f_min", unit: "Hz", display_unit: None, tunable: false, range: (0.0, 1e4),
         description: "lowest commanded field frequency (limits.f_min_hz)",
         get: |c| c.limits.f_min_hz, set: |c, v| c.limits.f_min_hz = v },
-    ParamSpec { name: "f_max", unit: "Hz", display_unit: None, tunable: false,
+    ParamSpec { name: "f_max", unit: "Hz", display_unit: None, tunable: false, range: (0.0, 1e4),
         description: "highest commanded field frequency (limits.f_max_hz)",
         get: |c| c.limits.f_max_hz, set: |c, v| c.limits.f_max_hz = v },
-    ParamSpec { name: "z_rate", unit: "m/s", display_unit: Some("mm/s"), tunable: false,
+    ParamSpec { name: "z_rate", unit: "m/s", display_unit: Some("mm/s"), tunable: false, range: (0.0, 1e3),
         description: "rate limit of z_m, the robot arm (limits.z_rate_mm_s)",
         get: |c| c.limits.z_rate_mm_s * MM, set: |c, v| c.limits.z_rate_mm_s = v / MM },
-    ParamSpec { name: "f_rate", unit: "Hz/s", display_unit: None, tunable: false,
+    ParamSpec { name: "f_rate", unit: "Hz/s", display_unit: None, tunable: false, range: (0.0, 1e6),
         description: "rate limit of the field frequency, the stepper (limits.f_rate_hz_s)",
         get: |c| c.limits.f_rate_hz_s, set: |c, v| c.limits.f_rate_hz_s = v },
-    ParamSpec { name: "reference_filter", unit: "s", display_unit: None, tunable: false,
+    ParamSpec { name: "reference_filter", unit: "s", display_unit: None, tunable: false, range: (0.0, 1e6),
         description: "setpoint prefilter time constant without feedforward (reference_filter_s)",
         get: |c| c.reference_filter_s, set: |c, v| c.reference_filter_s = v },
-    ParamSpec { name: "decoupler_damping", unit: "1", display_unit: None, tunable: false,
+    ParamSpec { name: "decoupler_damping", unit: "1", display_unit: None, tunable: false, range: (0.0, 1e6),
         description: "damping of the decoupler's inverse relative to the largest singular value (decoupler_damping)",
         get: |c| c.decoupler_damping, set: |c, v| c.decoupler_damping = v },
-    ParamSpec { name: "feasible_tol", unit: "m", display_unit: Some("mm"), tunable: false,
+    ParamSpec { name: "feasible_tol", unit: "m", display_unit: Some("mm"), tunable: false, range: (0.0, 1.0),
         description: "distance above which a setpoint is reported infeasible (feasible_tol_mm)",
         get: |c| c.feasible_tol_mm * MM, set: |c, v| c.feasible_tol_mm = v / MM },
 ];
@@ -372,7 +423,10 @@ static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
     default_experiment: Some(DefaultExperiment {
         start_time: Some(0.0),
         stop_time: Some(180.0),
-        tolerance: None,
+        // The controller is discrete and ignores it, but strict importers (FMI Library's
+        // compliance checker) warn when a DefaultExperiment has none; the plant's value, so
+        // a system of both FMUs runs at one tolerance.
+        tolerance: Some(1e-8),
         step_size: Some(0.05),
     }),
     units: UNITS,
@@ -448,10 +502,140 @@ fn load_config(path: &Path) -> Result<PidConfig, Fmi2Err> {
     PidConfig::from_json(&text).map_err(|e| Fmi2Err::error(format!("{}: {e}", path.display())))
 }
 
+/// The first number in `v` whose magnitude exceeds `max` (or that is not finite).
+fn first_absurd_number(v: &serde_json::Value, max: f64) -> Option<f64> {
+    match v {
+        serde_json::Value::Number(n) => n.as_f64().filter(|x| !(x.abs() <= max)),
+        serde_json::Value::Array(a) => a.iter().find_map(|x| first_absurd_number(x, max)),
+        serde_json::Value::Object(o) => o.values().find_map(|x| first_absurd_number(x, max)),
+        _ => None,
+    }
+}
+
+/// Forged variants of a serialized controller state (valid layout, absurd content), for the
+/// tests that show they are refused. Not part of the FMU's interface.
+#[doc(hidden)]
+pub fn forge_for_tests(good: &[u8]) -> Vec<(&'static str, Vec<u8>)> {
+    let mut rd = ByteReader::new(good);
+    let mut parts: Vec<Vec<u8>> = Vec::new();
+    let take_str = |rd: &mut ByteReader<'_>| rd.str().map(|s| s.to_string());
+    let model = take_str(&mut rd).unwrap_or_default();
+    let model_file = take_str(&mut rd).unwrap_or_default();
+    let base_cfg = take_str(&mut rd).unwrap_or_default();
+    let config_file = take_str(&mut rd).unwrap_or_default();
+    let n = rd.u32().unwrap_or(0);
+    let overrides: Vec<(u32, f64)> = (0..n)
+        .map(|_| (rd.u32().unwrap_or(0), rd.f64().unwrap_or(0.0)))
+        .collect();
+    let flags = [rd.u8().unwrap_or(0), rd.u8().unwrap_or(0)];
+    let xs: Vec<f64> = (0..7).map(|_| rd.f64().unwrap_or(0.0)).collect();
+    let has = rd.bool().unwrap_or(false);
+    let cfg = take_str(&mut rd).unwrap_or_default();
+    let snap = take_str(&mut rd).unwrap_or_default();
+    let k = rd.u64().unwrap_or(0);
+    let vs: Vec<f64> = (0..7).map(|_| rd.f64().unwrap_or(0.0)).collect();
+    let feasible = rd.bool().unwrap_or(true);
+    let encode = |base_cfg: &str, xs: &[f64], cfg: &str, snap: &str, k: u64, vs: &[f64]| {
+        let mut out = Vec::new();
+        out.put_str(&model);
+        out.put_str(&model_file);
+        out.put_str(base_cfg);
+        out.put_str(&config_file);
+        out.put_u32(overrides.len() as u32);
+        for &(i, v) in &overrides {
+            out.put_u32(i);
+            out.put_f64(v);
+        }
+        out.put_u8(flags[0]);
+        out.put_u8(flags[1]);
+        for &x in xs {
+            out.put_f64(x);
+        }
+        out.put_bool(has);
+        if has {
+            out.put_str(cfg);
+            out.put_str(snap);
+            out.put_u64(k);
+            for &v in vs {
+                out.put_f64(v);
+            }
+            out.put_bool(feasible);
+        }
+        out
+    };
+    let with_x = |i: usize, v: f64| {
+        let mut x = xs.clone();
+        x[i] = v;
+        x
+    };
+    let with_v = |i: usize, v: f64| {
+        let mut x = vs.clone();
+        x[i] = v;
+        x
+    };
+    let tiny_ts = |c: &str| {
+        let mut j: serde_json::Value = serde_json::from_str(c).unwrap_or_default();
+        j["sample_time_s"] = serde_json::json!(1e-9);
+        j.to_string()
+    };
+    let mut absurd_snap: serde_json::Value = serde_json::from_str(&snap).unwrap_or_default();
+    absurd_snap["integ"] = serde_json::json!([-1e300, -1e300]);
+    let absurd_snap = absurd_snap.to_string();
+    parts.push(encode(&base_cfg, &with_x(6, -1e308), &cfg, &snap, k, &vs));
+    parts.push(encode(&base_cfg, &with_x(6, 1e308), &cfg, &snap, k, &vs));
+    parts.push(encode(&base_cfg, &xs, &tiny_ts(&cfg), &snap, k, &vs));
+    parts.push(encode(&tiny_ts(&base_cfg), &xs, &cfg, &snap, k, &vs));
+    parts.push(encode(&base_cfg, &xs, &cfg, &absurd_snap, k, &vs));
+    parts.push(encode(
+        &base_cfg,
+        &xs,
+        &cfg,
+        &snap,
+        k,
+        &with_v(0, f64::NEG_INFINITY),
+    ));
+    parts.push(encode(&base_cfg, &xs, &cfg, &snap, u64::MAX, &vs));
+    parts.push(encode(&base_cfg, &with_x(4, 1e308), &cfg, &snap, k, &vs));
+    let names = [
+        "start time -1e308",
+        "start time 1e308",
+        "controller sample time 1e-9",
+        "configured sample time 1e-9",
+        "integrator state -1e300",
+        "command -inf",
+        "sample count u64::MAX",
+        "measured r1 1e308",
+    ];
+    names.into_iter().zip(parts).collect()
+}
+
 impl MagSwarmPid {
     /// A fresh instance; defaults from `resource_dir/model.json` and `resource_dir/pid.json`
     /// when present.
     pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarmPid, Fmi2Err> {
+        Self::with_resources(resource_dir, None)
+    }
+
+    /// As [`MagSwarmPid::new`], knowing the `resources/` folder this FMU was packaged with:
+    /// a packaged `model.json` or `pid.json` that the importer's resource location lacks is
+    /// an error naming both folders (the defaults would silently be the wrong ones).
+    pub fn with_resources(
+        resource_dir: Option<&Path>,
+        packaged: Option<&Path>,
+    ) -> Result<MagSwarmPid, Fmi2Err> {
+        for name in [RESOURCE_MODEL, RESOURCE_CONFIG] {
+            let baked = packaged.map(|d| d.join(name)).filter(|p| p.is_file());
+            if let (Some(b), None) = (baked, read_json_resource(resource_dir, name)) {
+                return Err(Fmi2Err::error(format!(
+                    "this FMU was packaged with {} but the resource location passed to \
+                     fmi2Instantiate ({}) holds no {name}; refusing to run with the built-in \
+                     defaults instead (pass the unpacked FMU's resources folder as \
+                     fmuResourceLocation)",
+                    b.display(),
+                    resource_dir.map_or("none".to_string(), |d| d.display().to_string())
+                )));
+            }
+        }
         let default_model = match read_json_resource(resource_dir, RESOURCE_MODEL) {
             Some(p) => Model::load(&p).map_err(|e| Fmi2Err::error(format!("resources: {e}")))?,
             None => Model::paper(),
@@ -552,7 +736,20 @@ impl MagSwarmPid {
             }
         }
         let new_setpoint = self.k == 0 || sp != self.goal_for;
+        let before = (self.u, self.goal, self.distance);
         self.apply(y, sp);
+        if !(self.u.iter().chain(&self.goal).all(|x| x.is_finite()) && self.distance.is_finite()) {
+            (self.u, self.goal, self.distance) = before;
+            return Err(Fmi2Err::error(format!(
+                "the controller produced a non-finite command at sample {} from r1 = {} mm, \
+                 r2 = {} mm, r1_ref = {} mm, r2_ref = {} mm; outputs keep their last values",
+                self.k - 1,
+                y[0],
+                y[1],
+                sp[0],
+                sp[1]
+            )));
+        }
         if new_setpoint {
             let ctrl = self.ctrl.as_ref().expect("sampled after initialisation");
             ctx.debug(
@@ -587,8 +784,49 @@ impl MagSwarmPid {
         self.k += 1;
     }
 
+    /// A restored state must be one this FMU could have reached: the same checks as set
+    /// values and configurations get, plus finite controller internals (a checksum proves the
+    /// bytes intact, not honest).
+    fn validate_restored(&self) -> Result<(), Fmi2Err> {
+        check_abs("z_start", self.z_start, MAX_Z_START, "m")?;
+        check_abs("omega_start", self.omega_start, MAX_OMEGA_START, "rad/s")?;
+        for (name, v) in [
+            ("r1_ref", self.r_ref[0]),
+            ("r2_ref", self.r_ref[1]),
+            ("r1", self.y[0]),
+            ("r2", self.y[1]),
+        ] {
+            check_abs(name, v, MAX_RADIUS, "m")?;
+        }
+        check_abs("start time", self.t0, MAX_TIME, "s")?;
+        check_config(&self.effective_config())?;
+        if let (Some(cfg), Some(ctrl)) = (&self.cfg_init, &self.ctrl) {
+            check_config(cfg)?;
+            let t_next = self.t0 + self.k as f64 * cfg.sample_time_s;
+            check_abs("time of the next sample", t_next, MAX_TIME, "s")?;
+            for (name, v) in [
+                ("z_m", self.u[0]),
+                ("omega_m", self.u[1]),
+                ("r1_goal", self.goal[0]),
+                ("r2_goal", self.goal[1]),
+                ("target_distance", self.distance),
+            ] {
+                check_abs(name, v, MAX_OMEGA_START, "(SI)")?;
+            }
+            let snap = serde_json::to_value(ctrl.snapshot())
+                .map_err(|e| Fmi2Err::error(format!("controller state: {e}")))?;
+            if let Some(x) = first_absurd_number(&snap, 1e12) {
+                return Err(Fmi2Err::error(format!(
+                    "controller state holds {x}, beyond any value the controller reaches"
+                )));
+            }
+        }
+        Ok(())
+    }
+
     fn build_controller(&mut self) -> Result<(), Fmi2Err> {
         let cfg = self.effective_config();
+        check_config(&cfg)?;
         let ctrl = Controller::new(self.model.clone(), cfg.clone())
             .map_err(|e| Fmi2Err::error(e.to_string()))?;
         self.cfg_init = Some(cfg);
@@ -605,7 +843,7 @@ impl FmuModel for MagSwarmPid {
     }
 
     fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
-        let m = MagSwarmPid::new(args.resource_dir)?;
+        let m = MagSwarmPid::with_resources(args.resource_dir, args.packaged_resources)?;
         ctx.debug(
             "logConfig",
             format!(
@@ -623,6 +861,7 @@ impl FmuModel for MagSwarmPid {
         start_time: f64,
         _stop_time: Option<f64>,
     ) -> Result<(), Fmi2Err> {
+        check_abs("startTime", start_time, MAX_TIME, "s")?;
         self.t0 = start_time;
         Ok(())
     }
@@ -646,6 +885,16 @@ impl FmuModel for MagSwarmPid {
             .ok_or_else(|| Fmi2Err::error("doStep before initialisation"))?;
         let t_end = current_time + step;
         let eps = 1e-6 * ts;
+        let next = self.t0 + self.k as f64 * ts;
+        let needed = ((t_end - eps - next) / ts).ceil();
+        if !next.is_finite() || needed > MAX_SAMPLES_PER_STEP as f64 {
+            return Err(Fmi2Err::error(format!(
+                "a step to t = {t_end} s needs {needed} controller samples of sample_time = {ts} s \
+                 from t = {next} s, more than the limit of {MAX_SAMPLES_PER_STEP} samples per \
+                 fmi2DoStep; use communication steps of at most {} s",
+                ts * MAX_SAMPLES_PER_STEP as f64
+            )));
+        }
         // Samples left behind (the master started later than the experiment's start time, or
         // jumped): catch up with the inputs in force.
         while self.t0 + self.k as f64 * ts < t_end - eps {
@@ -685,6 +934,10 @@ impl FmuModel for MagSwarmPid {
     fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), Fmi2Err> {
         if let Some(i) = param_index(vr) {
             let p = &PARAMS[i];
+            // Through the configuration's own units (mm), so an overflow there is caught too.
+            let mut probe = self.effective_config();
+            (p.set)(&mut probe, value);
+            check_param(p, (p.get)(&probe))?;
             if let Some(ctrl) = self.ctrl.as_mut() {
                 // Stepping: only the tunable gains get here (the shell refuses the others).
                 let mut cfg = self.cfg_init.clone().expect("built with the controller");
@@ -703,13 +956,32 @@ impl FmuModel for MagSwarmPid {
             }
             return Ok(());
         }
+        let radius = |name: &str| check_abs(name, value, MAX_RADIUS, "m");
         match vr {
-            vr::R1_REF => self.r_ref[0] = value,
-            vr::R2_REF => self.r_ref[1] = value,
-            vr::R1 => self.y[0] = value,
-            vr::R2 => self.y[1] = value,
-            vr::Z_START => self.z_start = value,
-            vr::OMEGA_START => self.omega_start = value,
+            vr::R1_REF => {
+                radius("r1_ref")?;
+                self.r_ref[0] = value
+            }
+            vr::R2_REF => {
+                radius("r2_ref")?;
+                self.r_ref[1] = value
+            }
+            vr::R1 => {
+                radius("r1")?;
+                self.y[0] = value
+            }
+            vr::R2 => {
+                radius("r2")?;
+                self.y[1] = value
+            }
+            vr::Z_START => {
+                check_abs("z_start", value, MAX_Z_START, "m")?;
+                self.z_start = value
+            }
+            vr::OMEGA_START => {
+                check_abs("omega_start", value, MAX_OMEGA_START, "rad/s")?;
+                self.omega_start = value
+            }
             other => return Err(Fmi2Err::unknown_vr(VarType::Real, other)),
         }
         Ok(())
@@ -929,6 +1201,7 @@ impl FmuModel for MagSwarmPid {
         }
         rd.finish()?;
         fresh.y = [xs[4], xs[5]];
+        fresh.validate_restored().map_err(|e| bad(e.message))?;
         *self = fresh;
         Ok(())
     }
@@ -1001,6 +1274,11 @@ mod tests {
             assert!(xml.contains(&format!("name=\"{name}\"")), "missing {name}");
         }
         assert!(xml.contains("modelIdentifier=\"MagSwarmPID\""));
+        let de = xml
+            .lines()
+            .find(|l| l.contains("<DefaultExperiment"))
+            .expect("a DefaultExperiment");
+        assert!(de.contains("tolerance=\"1e-8\""), "{de}");
     }
 
     #[test]

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """OpenCV side of the vision bench: Otsu threshold + moments on one 8-bit grayscale frame.
 
-    python opencv_otsu_moments.py FRAME.png [--reps N] [--invert]
+    python opencv_otsu_moments.py FRAME.png [--reps N] [--invert] [--serve]
 
 Prints one JSON object: OpenCV's version, the median/min time per frame (ms) of
   - otsu_moments: cv2.threshold(THRESH_OTSU) + cv2.moments(binaryImage=True) on the whole image,
@@ -9,6 +9,11 @@ Prints one JSON object: OpenCV's version, the median/min time per frame (ms) of
     moments of the largest component only (what magswarm-vision computes),
 and the radii/centroid each gives (r_i = 2 sqrt(lambda_i), pixel units). One thread
 (cv2.setNumThreads(1)), as the Rust side.
+
+--serve: after a warm-up, read a number K per line on stdin, time K repetitions of each variant
+and answer with one JSON line {"otsu_moments": [ms...], "otsu_cc_moments": [ms...]}; at end of
+input print the summary as above over all repetitions. The Rust bench uses this to interleave
+blocks of its own and OpenCV's repetitions, so both see the same machine load.
 """
 import argparse
 import json
@@ -37,6 +42,7 @@ def main():
     ap.add_argument("frame")
     ap.add_argument("--reps", type=int, default=200)
     ap.add_argument("--invert", action="store_true", help="light swarm on dark background")
+    ap.add_argument("--serve", action="store_true", help="time blocks on request (see above)")
     a = ap.parse_args()
     try:
         import cv2
@@ -51,12 +57,15 @@ def main():
         return 2
     mode = (cv2.THRESH_BINARY if a.invert else cv2.THRESH_BINARY_INV) | cv2.THRESH_OTSU
 
+    # the binary image is written into a preallocated buffer (no 2.3 MB allocation per call)
+    binary = np.empty_like(img)
+
     def otsu_moments():
-        t, b = cv2.threshold(img, 0, 255, mode)
+        t, b = cv2.threshold(img, 0, 255, mode, dst=binary)
         return t, cv2.moments(b, binaryImage=True)
 
     def otsu_cc_moments():
-        t, b = cv2.threshold(img, 0, 255, mode)
+        t, b = cv2.threshold(img, 0, 255, mode, dst=binary)
         n, labels, stats, _ = cv2.connectedComponentsWithStats(b, connectivity=8)
         if n < 2:
             return t, {"m00": 0}
@@ -69,15 +78,34 @@ def main():
         m["m01"] += y * m["m00"]
         return t, m
 
-    out = {"opencv": cv2.__version__, "reps": a.reps, "width": img.shape[1], "height": img.shape[0]}
-    for name, fn in (("otsu_moments", otsu_moments), ("otsu_cc_moments", otsu_cc_moments)):
+    variants = (("otsu_moments", otsu_moments), ("otsu_cc_moments", otsu_cc_moments))
+    times = {name: [] for name, _ in variants}
+    last = {}
+
+    def block(k):
+        for name, fn in variants:
+            for _ in range(k):
+                t0 = time.perf_counter_ns()
+                last[name] = fn()
+                times[name].append((time.perf_counter_ns() - t0) / 1e6)
+
+    for _, fn in variants:
         for _ in range(10):
             fn()
-        ts = []
-        for _ in range(a.reps):
-            t0 = time.perf_counter_ns()
-            thr, m = fn()
-            ts.append((time.perf_counter_ns() - t0) / 1e6)
+    if a.serve:
+        print("ready", flush=True)
+        for line in sys.stdin:
+            k = int(line)
+            n0 = {name: len(v) for name, v in times.items()}
+            block(k)
+            print(json.dumps({name: v[n0[name]:] for name, v in times.items()}), flush=True)
+    else:
+        block(a.reps)
+    out = {"opencv": cv2.__version__, "reps": len(times["otsu_moments"]),
+           "width": img.shape[1], "height": img.shape[0]}
+    for name, _ in variants:
+        thr, m = last[name]
+        ts = times[name]
         out[name] = dict(median_ms=statistics.median(ts), min_ms=min(ts), threshold=thr, **radii(m))
     print(json.dumps(out))
     return 0

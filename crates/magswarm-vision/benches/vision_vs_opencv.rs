@@ -5,7 +5,8 @@
 //!
 //! Renders a swarm frame (ellipse r1 = 160 px, r2 = 230 px at 30 deg, blur 1.5 px, noise 4 gray
 //! levels, three debris specks), writes it as PNG, times `Vision::measure` on it (Otsu, runs,
-//! largest component, moments), then runs `benches/opencv_otsu_moments.py` on the same PNG
+//! largest component, moments) and `benches/opencv_otsu_moments.py` on the same PNG, in
+//! alternating blocks of 20 repetitions (the Python process serves timing requests)
 //! (Python: $MAGSWARM_PYTHON, else the workspace .venv, else python3) and prints both medians and
 //! minima and their ratios (on a shared machine the minima are the fairer figure: the two sides
 //! run one after the other and see different loads). Exits 2 when the OpenCV side cannot run
@@ -14,8 +15,9 @@
 use magswarm_vision::folder::{read_png, write_png};
 use magswarm_vision::synth::{add_ellipse_coverage, finish, EllipseSpec};
 use magswarm_vision::{Vision, VisionConfig};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::time::Instant;
 
 fn bench_frame(path: &Path) {
@@ -103,51 +105,83 @@ fn main() {
     for _ in 0..20 {
         std::hint::black_box(v.measure(img.view(), &cfg));
     }
-    let mut ts = Vec::with_capacity(reps);
-    let mut m = None;
-    for _ in 0..reps {
-        let t0 = Instant::now();
-        let r = v.measure(std::hint::black_box(img.view()), &cfg);
-        ts.push(t0.elapsed().as_secs_f64() * 1e3);
-        m = Some(r);
-    }
-    let m = m.unwrap();
-    let min = ts.iter().cloned().fold(f64::INFINITY, f64::min);
-    let ours = median(&mut ts);
     println!(
         "frame {}x{} ({})",
         img.width(),
         img.height(),
         frame.display()
     );
-    println!(
-        "magswarm-vision  Otsu + runs + largest component + moments: median {ours:.3} ms, min {min:.3} ms \
-         ({reps} reps, 1 thread); T={} r1={:.3} r2={:.3} px angle={:.2} deg c=({:.2}, {:.2}) area={} valid={}",
-        m.threshold, m.r1_px, m.r2_px, m.angle_deg, m.cx_px, m.cy_px, m.area_px, m.valid()
-    );
+
+    // OpenCV in a Python process that times blocks on request: blocks of ours and of OpenCV's
+    // alternate, so both sides see the same machine load
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/opencv_otsu_moments.py");
     let py = python();
-    let out = Command::new(&py)
+    let mut child = match Command::new(&py)
         .arg(&script)
         .arg(&frame)
-        .arg("--reps")
-        .arg(reps.to_string())
-        .output();
-    let out = match out {
-        Ok(o) => o,
+        .arg("--serve")
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+    {
+        Ok(c) => c,
         Err(e) => {
             eprintln!("OpenCV side not run: cannot start {}: {e}", py.display());
             std::process::exit(2);
         }
     };
-    let text = String::from_utf8_lossy(&out.stdout);
-    if !out.status.success() {
+    let mut to_py = child.stdin.take().unwrap();
+    let mut from_py = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    from_py.read_line(&mut line).ok();
+    if line.trim() != "ready" {
+        let out = child.wait_with_output().expect("python output");
         eprintln!(
-            "OpenCV side failed ({}): {}{}",
+            "OpenCV side failed ({}): {line}{}",
             py.display(),
-            text,
             String::from_utf8_lossy(&out.stderr)
         );
+        std::process::exit(2);
+    }
+    let block = 20usize;
+    let blocks = reps.div_ceil(block);
+    let mut ts = Vec::with_capacity(blocks * block);
+    let mut m = None;
+    for _ in 0..blocks {
+        for _ in 0..block {
+            let t0 = Instant::now();
+            let r = v.measure(std::hint::black_box(img.view()), &cfg);
+            ts.push(t0.elapsed().as_secs_f64() * 1e3);
+            m = Some(r);
+        }
+        writeln!(to_py, "{block}").expect("write to python");
+        line.clear();
+        from_py.read_line(&mut line).expect("read from python");
+    }
+    drop(to_py);
+    let m = m.unwrap();
+    let min = ts.iter().cloned().fold(f64::INFINITY, f64::min);
+    let ours = median(&mut ts);
+    println!(
+        "magswarm-vision  Otsu + runs + largest component + moments: median {ours:.3} ms, min {min:.3} ms \
+         ({} reps in blocks of {block} alternating with OpenCV's, 1 thread); T={} r1={:.3} r2={:.3} px \
+         angle={:.2} deg c=({:.2}, {:.2}) area={} valid={}",
+        ts.len(),
+        m.threshold,
+        m.r1_px,
+        m.r2_px,
+        m.angle_deg,
+        m.cx_px,
+        m.cy_px,
+        m.area_px,
+        m.valid()
+    );
+    // the summary over all blocks follows the end of input
+    let mut text = String::new();
+    std::io::Read::read_to_string(&mut from_py, &mut text).expect("read from python");
+    let status = child.wait().expect("python exit");
+    if !status.success() {
+        eprintln!("OpenCV side failed ({}, {status}): {text}", py.display());
         std::process::exit(2);
     }
     let j: serde_json::Value =

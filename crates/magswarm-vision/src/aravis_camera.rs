@@ -22,8 +22,11 @@ pub fn enable_fake_interface() {
     unsafe { aravis_sys::arv_enable_interface(c"Fake".as_ptr()) }
 }
 
-/// How to open and set up the camera (`[camera]` keys for `kind = "aravis"`).
-#[derive(Clone, Debug, PartialEq, Default)]
+/// How to open and set up the camera (`[camera]` keys for `kind = "aravis"`: `device`,
+/// `exposure_us`, `fps`, `region = [x, y, w, h]`, `buffers`; other keys of the table are left to
+/// the caller).
+#[derive(Clone, Debug, PartialEq, Default, serde::Deserialize)]
+#[serde(default)]
 pub struct AravisConfig {
     /// Aravis device id, serial number or (GigE) IP address; the first camera found when `None`.
     pub device: Option<String>,

@@ -121,7 +121,8 @@ impl SwarmRenderer {
             }
         }
         let normal = Normal::new(0.0, cfg.noise_sigma.max(0.0)).unwrap();
-        let noise = (0..1 << 16)
+        // 2^16 samples plus one row more, so any row can read a contiguous slice
+        let noise = (0..(1 << 16) + cfg.width)
             .map(|_| {
                 if cfg.noise_sigma > 0.0 {
                     normal.sample(&mut rng).round().clamp(-255.0, 255.0) as i16
@@ -217,11 +218,10 @@ impl SwarmRenderer {
         }
         // sensor noise: a Gaussian table read from a random offset per row
         if c.noise_sigma > 0.0 {
-            let mask = self.noise.len() - 1;
             for y in 0..h {
-                let off: usize = self.rng.random_range(0..self.noise.len());
-                for (x, p) in img.row_mut(y).iter_mut().enumerate() {
-                    let n = self.noise[(off + x * 7) & mask];
+                let off: usize = self.rng.random_range(0..1usize << 16);
+                let noise = &self.noise[off..off + w];
+                for (p, &n) in img.row_mut(y).iter_mut().zip(noise) {
                     *p = (*p as i16 + n).clamp(0, 255) as u8;
                 }
             }
@@ -256,21 +256,41 @@ impl SwarmRenderer {
         let bg = c.background_level as f64;
         let dark = c.swarm_level as f64;
         let tex = c.texture as f64;
+        // q below this: deeper than 6 sigma inside the boundary (full coverage, no edge maths)
+        let q_in = (1.0 - (6.0 * sigma + 1.0) / r1).max(0.0).powi(2);
+        // q above this: further than the blur reaches outside; per row, the columns inside it
+        // solve a quadratic: qa dx^2 + qb dy dx + qc dy^2 = q_out
+        let q_out = (1.0 + (5.0 * sigma + 2.0) / r1).powi(2);
+        let qa = co * co * ia2 + s * s * ib2;
+        let qb = 2.0 * co * s * (ia2 - ib2);
+        let qc = s * s * ia2 + co * co * ib2;
         for y in y0..y1 {
             let dy = y as f64 - cy;
+            let disc = (qb * dy).powi(2) - 4.0 * qa * (qc * dy * dy - q_out);
+            if disc < 0.0 {
+                continue;
+            }
+            let sq = disc.sqrt();
+            let xa = (cx + (-qb * dy - sq) / (2.0 * qa)).floor().max(x0 as f64) as usize;
+            let xb = ((cx + (-qb * dy + sq) / (2.0 * qa)).ceil() + 1.0).max(0.0) as usize;
+            let xb = xb.min(x1);
             let row = img.row_mut(y);
-            for (x, p) in row.iter_mut().enumerate().take(x1).skip(x0) {
+            for (x, p) in row.iter_mut().enumerate().take(xb).skip(xa) {
                 let dx = x as f64 - cx;
                 let u = co * dx + s * dy;
                 let v = -s * dx + co * dy;
                 let q = u * u * ia2 + v * v * ib2;
-                // signed distance to the boundary, first order: (q - 1) / |grad q|
-                let g = 2.0 * ((u * ia2).powi(2) + (v * ib2).powi(2)).sqrt();
-                let d = if g > 0.0 { (q - 1.0) / g } else { -r1 };
-                if d > 5.0 * sigma {
-                    continue;
-                }
-                let cover = phi(-d / sigma);
+                let cover = if q < q_in {
+                    1.0
+                } else {
+                    // signed distance to the boundary, first order: (q - 1) / |grad q|
+                    let g = 2.0 * ((u * ia2).powi(2) + (v * ib2).powi(2)).sqrt();
+                    let d = if g > 0.0 { (q - 1.0) / g } else { -r1 };
+                    if d > 5.0 * sigma {
+                        continue;
+                    }
+                    phi(-d / sigma)
+                };
                 let inner = match density {
                     Some((bx, by, bw, bh)) if x >= bx && y >= by && x < bx + bw && y < by + bh => {
                         dark + tex * (1.0 - self.density[(y - by) * bw + (x - bx)] as f64)

@@ -650,9 +650,9 @@ pub fn otsu(hist: &[u32; 256]) -> Option<Otsu> {
     let mut sum0 = 0.0f64;
     let mut best = -1.0f64;
     let (mut lo, mut hi) = (0usize, 0usize);
-    for t in 0..255 {
-        w0 += hist[t] as u64;
-        sum0 += t as f64 * hist[t] as f64;
+    for (t, &count) in hist.iter().enumerate().take(255) {
+        w0 += count as u64;
+        sum0 += t as f64 * count as f64;
         if w0 == 0 {
             continue;
         }

@@ -130,6 +130,48 @@ pub struct Lag {
     pub t: f64,
     pub outside: bool,
     pub panic_now: bool,
+    /// Counts live copies (instances and FMU states) per instance name.
+    pub probe: Probe,
+}
+
+/// Live copies of the model per instance name: clones (FMU states) count too, so a test can
+/// see that freeing an instance frees its states.
+pub static LIVE: std::sync::Mutex<Vec<(String, i64)>> = std::sync::Mutex::new(Vec::new());
+
+fn live_add(name: &str, d: i64) {
+    let mut v = LIVE.lock().unwrap_or_else(|e| e.into_inner());
+    match v.iter_mut().find(|(n, _)| n == name) {
+        Some((_, k)) => *k += d,
+        None => v.push((name.to_string(), d)),
+    }
+}
+
+/// Live copies of the instance called `name`.
+pub fn live(name: &str) -> i64 {
+    let v = LIVE.lock().unwrap_or_else(|e| e.into_inner());
+    v.iter().find(|(n, _)| n == name).map_or(0, |(_, k)| *k)
+}
+
+#[derive(Debug, PartialEq)]
+pub struct Probe(pub String);
+
+impl Probe {
+    pub fn new(name: &str) -> Probe {
+        live_add(name, 1);
+        Probe(name.to_string())
+    }
+}
+
+impl Clone for Probe {
+    fn clone(&self) -> Probe {
+        Probe::new(&self.0)
+    }
+}
+
+impl Drop for Probe {
+    fn drop(&mut self) {
+        live_add(&self.0, -1);
+    }
 }
 
 impl Lag {
@@ -163,6 +205,7 @@ impl FmuModel for Lag {
             t: 0.0,
             outside: false,
             panic_now: false,
+            probe: Probe::new(args.instance_name),
         })
     }
 

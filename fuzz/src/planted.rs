@@ -1,0 +1,76 @@
+//! A test-only model with a planted bug, to show the harness can fail: its `do_step` panics
+//! when the input is exactly 0.5. The shell catches the panic (the importer gets fmi2Error),
+//! and the driver's invariant "no panic inside the FMU" turns it into a fuzzer crash.
+
+use magswarm_fmi2::bytes::{ByteReader, PutBytes};
+use magswarm_fmi2::{Ctx, Fmi2Err, FmuModel, InstantiateArgs, ModelInfo, VarType, Variable};
+
+static VARIABLES: [Variable; 2] = [
+    Variable::real("u", 0).input().start_real(0.0).unit("1"),
+    Variable::real("y", 1).output().unit("1").depends_on(&[0]),
+];
+
+static INFO: ModelInfo = ModelInfo {
+    model_identifier: "Planted",
+    model_name: "Planted",
+    description: "a gain with a planted bug",
+    version: "0",
+    author: "",
+    copyright: None,
+    license: None,
+    generation_tool: "magswarm-fuzz",
+    naming_convention: magswarm_fmi2::NamingConvention::Flat,
+    default_experiment: None,
+    units: &[magswarm_fmi2::units::ONE],
+    log_categories: &[],
+    variables: &VARIABLES,
+};
+
+/// `y = 2 u`, except that stepping with `u = 0.5` panics.
+#[derive(Clone, Debug)]
+pub struct Planted {
+    u: f64,
+    y: f64,
+}
+
+impl FmuModel for Planted {
+    fn model_info() -> &'static ModelInfo {
+        &INFO
+    }
+    fn instantiate(_: &mut Ctx<'_>, _: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+        Ok(Planted { u: 0.0, y: 0.0 })
+    }
+    fn do_step(&mut self, _: &mut Ctx<'_>, _t: f64, _h: f64) -> Result<(), Fmi2Err> {
+        if self.u == 0.5 {
+            panic!("planted bug: u = 0.5");
+        }
+        self.y = 2.0 * self.u;
+        Ok(())
+    }
+    fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
+        match vr {
+            0 => Ok(self.u),
+            1 => Ok(self.y),
+            _ => Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+        }
+    }
+    fn set_real(&mut self, _: &mut Ctx<'_>, vr: u32, x: f64) -> Result<(), Fmi2Err> {
+        match vr {
+            0 => self.u = x,
+            _ => return Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+        }
+        Ok(())
+    }
+    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
+        out.put_f64(self.u);
+        out.put_f64(self.y);
+        Ok(())
+    }
+    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
+        let mut r = ByteReader::new(bytes);
+        let (u, y) = (r.f64()?, r.f64()?);
+        r.finish()?;
+        (self.u, self.y) = (u, y);
+        Ok(())
+    }
+}
