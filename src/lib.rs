@@ -19,5 +19,7 @@ pub mod lab;
 pub mod outputs;
 pub mod packaging;
 pub mod paper;
+pub mod perf;
 pub mod plot;
 pub mod predict;
+pub mod sweep;

@@ -32,6 +32,8 @@ enum Cmd {
     Linearize(magswarm::control_cli::LinearizeArgs),
     /// Virtual lab: synthetic measurement logs from a truth model with chosen effects.
     Lab(magswarm::lab::LabArgs),
+    /// Monte Carlo of the seed's closed-loop tracking scenario under parameter uncertainty.
+    Sweep(magswarm::sweep::SweepArgs),
 }
 
 /// Every output path of the command, checked (and missing folders created) before it runs.
@@ -83,6 +85,7 @@ fn main() {
         Cmd::Inverse(a) => magswarm::control_cli::run_inverse(a),
         Cmd::Linearize(a) => magswarm::control_cli::run_linearize(a),
         Cmd::Lab(a) => magswarm::lab::run(a),
+        Cmd::Sweep(a) => magswarm::sweep::run(a.clone()),
     };
     if let Err(e) = result {
         eprintln!("magswarm: error: {e:#}");

@@ -54,7 +54,11 @@ impl InputTerms {
         let (w, dw) = steady::norm_freq(model, omega);
         // The swarm's rotation rate (|omega| unless the phase_lag effect makes it step out).
         let (w, dw, dw_dz) = steady::swarm_rate(model, w, dw, &sp.field);
-        let wp = if w > 0.0 { w.powf(d.p) } else { 0.0 };
+        let wp = if w > 0.0 {
+            pow_int_or_real(w, d.p)
+        } else {
+            0.0
+        };
         let dwp = if w > 0.0 { d.p * wp / w * dw } else { 0.0 };
         let e0 = d.K_tau * wp * d.s_B * sp.field.b;
         let mut de0 = [
@@ -90,7 +94,8 @@ impl InputTerms {
         let prod = rs[0] * rs[1];
         for i in 0..2 {
             let gap = (rs[i] - rmin[i]).max(1e-12);
-            let den = s[i] * gap.powf(d.beta);
+            let gap_b = pow_int_or_real(gap, d.beta);
+            let den = s[i] * gap_b;
             let num = self.e0 * prod - kd[i] * rs[i];
             let kb = num / den;
             // Written so that a NaN gain (degenerate inputs) is clamped as well.
@@ -106,8 +111,8 @@ impl InputTerms {
             for j in 0..2 {
                 let dprod = sp.jac[0][j] * rs[1] + rs[0] * sp.jac[1][j];
                 let dnum = self.de0[j] * prod + self.e0 * dprod - kd[i] * sp.jac[i][j];
-                let dden = sp.ds[i][j] * gap.powf(d.beta)
-                    + s[i] * d.beta * gap.powf(d.beta - 1.0) * sp.jac[i][j];
+                let dden = sp.ds[i][j] * gap_b
+                    + s[i] * d.beta * pow_int_or_real(gap, d.beta - 1.0) * sp.jac[i][j];
                 self.dk_b[i][j] = (dnum - kb * dden) / den;
             }
         }
@@ -128,6 +133,27 @@ impl InputTerms {
         [
             -self.k_b[0] * s[0] * confine(r[0] - d.r1_min, d.beta) + e - d.K_d1 * r[0],
             -self.k_b[1] * s[1] * confine(r[1] - d.r2_min, d.beta) + e - d.K_d2 * r[1],
+        ]
+    }
+
+    /// Every number [`InputTerms::rhs`] reads besides the state: two right-hand sides with
+    /// equal keys are the same function. The integrator uses it to recognise a step it has
+    /// already taken (see `integrate::RestMemo`); whoever adds a term to `rhs` adds what it
+    /// reads here.
+    #[inline]
+    pub fn rhs_key(&self, model: &Model) -> [f64; 10] {
+        let d = &model.dynamics;
+        [
+            self.e0,
+            self.k_b[0],
+            self.k_b[1],
+            self.steady.s_x,
+            self.steady.s_y,
+            d.r1_min,
+            d.r2_min,
+            d.beta,
+            d.K_d1,
+            d.K_d2,
         ]
     }
 
@@ -164,11 +190,35 @@ impl InputTerms {
     }
 }
 
+/// `x^e` by multiplication when `e` is 1, 2, 3 or 4 (the paper's beta is 3), by `sqrt` for
+/// 0.5 (the paper's p), else `powf`.
+///
+/// The right-hand side of (4) is evaluated six times per integrator step; `powf` is a libm
+/// call of about 20 ns, three multiplications are under 2 ns. The products differ from
+/// `powf` by at most two units in the last place, far below the integrator's tolerance.
+#[inline(always)]
+pub fn pow_int_or_real(x: f64, e: f64) -> f64 {
+    if e == 3.0 {
+        x * x * x
+    } else if e == 2.0 {
+        x * x
+    } else if e == 4.0 {
+        let x2 = x * x;
+        x2 * x2
+    } else if e == 1.0 {
+        x
+    } else if e == 0.5 && x >= 0.0 {
+        x.sqrt()
+    } else {
+        x.powf(e)
+    }
+}
+
 /// (r - r_min)^beta, zero below the packing limit (the confinement cannot pull further).
 #[inline]
 fn confine(gap: f64, beta: f64) -> f64 {
     if gap > 0.0 {
-        gap.powf(beta)
+        pow_int_or_real(gap, beta)
     } else {
         0.0
     }
@@ -177,7 +227,7 @@ fn confine(gap: f64, beta: f64) -> f64 {
 #[inline]
 fn confine_d(gap: f64, beta: f64) -> f64 {
     if gap > 0.0 {
-        beta * gap.powf(beta - 1.0)
+        beta * pow_int_or_real(gap, beta - 1.0)
     } else {
         0.0
     }
