@@ -121,7 +121,8 @@ impl SwarmRenderer {
             }
         }
         let normal = Normal::new(0.0, cfg.noise_sigma.max(0.0)).unwrap();
-        let noise = (0..1 << 16)
+        // 2^16 samples plus one row more, so any row can read a contiguous slice
+        let noise = (0..(1 << 16) + cfg.width)
             .map(|_| {
                 if cfg.noise_sigma > 0.0 {
                     normal.sample(&mut rng).round().clamp(-255.0, 255.0) as i16
@@ -217,11 +218,10 @@ impl SwarmRenderer {
         }
         // sensor noise: a Gaussian table read from a random offset per row
         if c.noise_sigma > 0.0 {
-            let mask = self.noise.len() - 1;
             for y in 0..h {
-                let off: usize = self.rng.random_range(0..self.noise.len());
-                for (x, p) in img.row_mut(y).iter_mut().enumerate() {
-                    let n = self.noise[(off + x * 7) & mask];
+                let off: usize = self.rng.random_range(0..1usize << 16);
+                let noise = &self.noise[off..off + w];
+                for (p, &n) in img.row_mut(y).iter_mut().zip(noise) {
                     *p = (*p as i16 + n).clamp(0, 255) as u8;
                 }
             }

@@ -210,3 +210,29 @@ fn measure_folder_errors() {
         assert!(e.to_string().contains("mm-per-px"), "{e}");
     }
 }
+
+#[test]
+fn full_size_emulated_frames_measure_within_half_a_pixel() {
+    // the rig's scale: 1920x1200 at 0.05 mm/px, r = 7.5 and 11.5 mm -> 150 and 230 px, a textured
+    // (particle-filled) swarm with blur, noise and debris
+    let mut r = SwarmRenderer::new(EmulatorConfig::default());
+    let cfg = VisionConfig::default();
+    for k in 0..6 {
+        let a = -80.0 + 31.0 * k as f64;
+        let img = r.render(150.0, 230.0, a.to_radians());
+        let m = measure_frame(img.view(), &cfg);
+        assert!(m.valid(), "{m:?}");
+        assert!(
+            (m.r1_px - 150.0).abs() < 0.5 && (m.r2_px - 230.0).abs() < 0.5,
+            "angle {a}: {m:?}"
+        );
+        assert!(
+            angle_err(m.angle_deg, a) * std::f64::consts::PI / 180.0 * 230.0 < 0.5,
+            "angle {a}: {m:?}"
+        );
+        assert!(
+            (m.cx_px - 959.5).abs() < 0.5 && (m.cy_px - 599.5).abs() < 0.5,
+            "{m:?}"
+        );
+    }
+}
