@@ -23,10 +23,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
+use magswarm::control::driver::NoLog;
 use magswarm::control::{seed_scenario, sim, summarize, Controller, PidConfig, Sample, Segment};
-use magswarm::cosim::{CoSimConfig, CoSimulation, Command, Fmu, NoLog};
-use magswarm::log::{Layout, LogRow, LogWriter};
-use magswarm::model::{rad_s_to_hz, Model};
+use magswarm::cosim::{CoSimConfig, CoSimulation, Fmu};
+use magswarm::log::{Layout, LogWriter};
+use magswarm::model::Model;
 
 /// Command line.
 #[derive(Debug, Parser)]
@@ -56,7 +57,7 @@ pub struct Args {
 /// feasible.
 #[derive(Debug, Clone)]
 pub struct Run {
-    /// The samples, as `magswarm_control::sim::closed_loop` records them.
+    /// The samples, as `magswarm_control::sim::tracking` records them.
     pub samples: Vec<Sample>,
     /// `!target_infeasible()` at each sample.
     pub feasible: Vec<bool>,
@@ -105,46 +106,13 @@ pub fn run(
         },
     )?;
     let mut ctrl = Controller::new(model.clone(), cfg.clone())?;
-    // Sample index -> segment.
-    let mut seg_of = Vec::new();
-    for (i, s) in segments.iter().enumerate() {
-        let n = (s.duration_s / ts).round() as usize;
-        seg_of.extend(std::iter::repeat_n(i, n));
-    }
-    let mut samples = Vec::with_capacity(seg_of.len());
-    let mut feasible = Vec::with_capacity(seg_of.len());
-    let summary = sim.run(
-        seg_of.len() as u64,
-        |m| {
-            let k = m.k as usize;
-            let seg = segments[seg_of[k]];
-            let y = m.radii_mm();
-            if k == 0 {
-                ctrl.reset(m.inputs[0], m.inputs[1], y);
-            }
-            let (z, w) = ctrl.step(y, [seg.r1, seg.r2]);
-            let goal = ctrl.reachable_setpoint().unwrap_or([seg.r1, seg.r2]);
-            samples.push(Sample {
-                t_s: m.t_s,
-                z_m_mm: z * 1e3,
-                f_hz: rad_s_to_hz(w),
-                r1_mm: y[0],
-                r2_mm: y[1],
-                r1_ref_mm: seg.r1,
-                r2_ref_mm: seg.r2,
-                segment: seg_of[k],
-                r1_goal_mm: goal[0],
-                r2_goal_mm: goal[1],
-            });
-            feasible.push(!ctrl.target_infeasible());
-            Command::new(z, w).with_reference_mm(seg.r1, seg.r2)
-        },
-        &mut NoLog,
-    )?;
+    // The one closed-loop driver, with the FMU importer as the plant.
+    let w0 = sim.warnings();
+    let run = sim::tracking(&mut sim, &mut ctrl, segments, false, &mut NoLog)?;
     Ok(Run {
-        samples,
-        feasible,
-        warnings: summary.warnings,
+        samples: run.samples,
+        feasible: run.feasible,
+        warnings: sim.warnings() - w0,
     })
 }
 
@@ -160,9 +128,7 @@ pub fn write_log(path: &Path, run: &Run) -> Result<()> {
     let mut w = LogWriter::create(path, layout)
         .with_context(|| format!("cannot write {}", path.display()))?;
     for (s, ok) in run.samples.iter().zip(&run.feasible) {
-        let mut row = LogRow::new(s.t_s, s.z_m_mm, s.f_hz, Some([s.r1_mm, s.r2_mm]));
-        row.r1_ref_mm = Some(s.r1_ref_mm);
-        row.r2_ref_mm = Some(s.r2_ref_mm);
+        let mut row = s.log_row();
         row.extra = vec![
             format!("{}", s.r1_goal_mm),
             format!("{}", s.r2_goal_mm),

@@ -68,7 +68,10 @@ pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2
     let mut out = Vec::with_capacity(rows.len());
     let mut t_prev = first.t;
     for r in rows {
-        plant.set_inputs(r.z_mm * 1e-3, hz_to_rad_s(r.f_hz));
+        // The model's input rule (the swarm plane outside the magnet), per row.
+        plant
+            .try_set_inputs(r.z_mm * 1e-3, hz_to_rad_s(r.f_hz))
+            .map_err(|e| anyhow::anyhow!("row at t = {} s: {e}", r.t))?;
         let h = r.t - t_prev;
         if h > 0.0 {
             step_robust(&mut plant, h).with_context(|| {

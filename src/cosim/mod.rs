@@ -11,9 +11,11 @@
 //!   get/set/free and (de)serialisation, directional derivatives, `terminate`; dropping it
 //!   frees it. Failing calls give [`CosimError::Fmi`] with the FMI function, the status and
 //!   what the FMU logged.
-//! - [`CoSimulation`] is a fixed-step master for closed loops: each communication step reads
-//!   the outputs, asks a controller closure for the inputs, writes one row of the
-//!   measurement log (CONTRACTS.md) to a [`LogSink`], sets the inputs and calls `doStep`.
+//! - [`CoSimulation`] is one FMU as a plant ([`magswarm_control::plant::SwarmPlant`]), so the
+//!   one closed-loop driver ([`magswarm_control::driver::run_loop`]) runs it: each
+//!   communication step reads the outputs, asks a controller for the inputs, writes one row
+//!   of the measurement log (CONTRACTS.md) to a [`LogSink`], sets the inputs and calls
+//!   `doStep`. [`CoSimulation::run`] is that loop with a closure over [`Measurement`].
 //!
 //! ```no_run
 //! use magswarm::cosim::{Fmu, SlaveOptions};
@@ -43,7 +45,6 @@ mod slave;
 pub use error::{CosimError, Result, Status};
 pub use import::{Capabilities, Causality, Fmu, Start, VarType, Variable};
 pub use runner::{
-    log_row, CoSimConfig, CoSimulation, Command, FnSink, LogSink, Measurement, NoLog, ParamValue,
-    RunSummary,
+    CoSimConfig, CoSimulation, Command, FnSink, LogSink, Measurement, NoLog, ParamValue, RunSummary,
 };
 pub use slave::{FmuSlave, FmuState, LogMessage, SlaveOptions};

@@ -1,14 +1,12 @@
-//! [`CoSimulation`]: a fixed-step master for one MagSwarm-like FMU and a controller closure.
+//! [`CoSimulation`]: one MagSwarm-like FMU as a [`SwarmPlant`] (the FMU importer's plant),
+//! run by the one closed-loop driver [`magswarm_control::driver::run_loop`].
 //!
 //! # Timing (one communication step `h`)
 //!
-//! At each sample `t_k = t_0 + k h` (accumulated as `t += h`, like the in-process loop of
-//! `magswarm_control::sim::closed_loop`):
+//! At each sample `t_k = t_0 + k h` (accumulated as `t += h`, like the in-process plant):
 //!
-//! 1. the outputs are read ([`Measurement`]: the radii the FMU holds at `t_k`, plus any
-//!    `extra_outputs`);
-//! 2. the controller closure maps the measurement to a [`Command`] (inputs, optional
-//!    setpoints);
+//! 1. the outputs are read (the radii the FMU holds at `t_k`, plus any `extra_outputs`);
+//! 2. the controller maps them to a [`Command`] (inputs, optional setpoints);
 //! 3. one log row `(t_k, command, measured radii, setpoints)` goes to the sink: the inputs in a
 //!    row are the ones commanded from `t_k` on (zero-order hold), as CONTRACTS.md's log asks;
 //! 4. the inputs are set (`fmi2SetReal`) and the FMU advances `fmi2DoStep(t_k, h)`.
@@ -16,18 +14,19 @@
 //! This is a sequential (Gauss-Seidel) loop: the controller sees the outputs of the step that
 //! just finished. A Jacobi master (libcosim with connections) adds one sample of delay.
 //!
-//! Units: everything in the API is SI as on the FMU's interface (m, rad/s), except the log
-//! rows, which are in the contract's mm and Hz, and [`Command::reference_mm`] (setpoints are
-//! logged in mm, as the controller library works in mm).
+//! Units: everything in the API is SI as on the FMU's interface (m, rad/s), except the
+//! readings and log rows, which are in the contract's mm and Hz, and
+//! [`Command::reference_mm`] (setpoints are logged in mm, as the controller library works in
+//! mm).
 
-use std::io::Write;
-
-use magswarm_model::rad_s_to_hz;
+use magswarm_control::driver::{run_loop, LoopError, Tick};
+use magswarm_control::plant::{Inputs, PlantError, Reading, SwarmPlant};
 
 use super::error::{CosimError, Result, Status};
 use super::import::Fmu;
 use super::slave::{FmuSlave, SlaveOptions};
-use crate::log::{LogRow, LogWriter};
+
+pub use magswarm_control::driver::{Command, FnSink, LogSink, NoLog};
 
 /// A parameter value to set before initialisation.
 #[derive(Debug, Clone, PartialEq)]
@@ -109,74 +108,6 @@ impl Measurement {
     }
 }
 
-/// What the controller commands from a sample on.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Command {
-    /// Inputs `[z_m [m], omega_m [rad/s]]`.
-    pub inputs: [f64; 2],
-    /// Setpoints `[r1*, r2*]` [mm] for the log's `r1_ref_mm`, `r2_ref_mm` (None: not logged).
-    pub reference_mm: Option<[f64; 2]>,
-}
-
-impl Command {
-    /// Inputs in SI (z_m [m], omega_m [rad/s]), no setpoint.
-    pub fn new(z_m: f64, omega_m: f64) -> Command {
-        Command {
-            inputs: [z_m, omega_m],
-            reference_mm: None,
-        }
-    }
-
-    /// Inputs in the log's units (z_m [mm], f [Hz]).
-    pub fn from_mm_hz(z_mm: f64, f_hz: f64) -> Command {
-        Command::new(z_mm * 1e-3, f_hz * std::f64::consts::TAU)
-    }
-
-    /// With setpoints [mm].
-    pub fn with_reference_mm(mut self, r1: f64, r2: f64) -> Command {
-        self.reference_mm = Some([r1, r2]);
-        self
-    }
-}
-
-/// Where log rows go. Implemented for [`crate::log::LogWriter`] (the contract's CSV), for
-/// `Vec<LogRow>`, for [`FnSink`] (any closure) and for [`NoLog`].
-pub trait LogSink {
-    /// Take one row.
-    fn write_row(&mut self, row: &LogRow) -> std::io::Result<()>;
-}
-
-impl<W: Write> LogSink for LogWriter<W> {
-    fn write_row(&mut self, row: &LogRow) -> std::io::Result<()> {
-        LogWriter::write_row(self, row)
-    }
-}
-
-impl LogSink for Vec<LogRow> {
-    fn write_row(&mut self, row: &LogRow) -> std::io::Result<()> {
-        self.push(row.clone());
-        Ok(())
-    }
-}
-
-/// A closure as a sink.
-pub struct FnSink<F>(pub F);
-
-impl<F: FnMut(&LogRow) -> std::io::Result<()>> LogSink for FnSink<F> {
-    fn write_row(&mut self, row: &LogRow) -> std::io::Result<()> {
-        (self.0)(row)
-    }
-}
-
-/// A sink that drops the rows.
-pub struct NoLog;
-
-impl LogSink for NoLog {
-    fn write_row(&mut self, _row: &LogRow) -> std::io::Result<()> {
-        Ok(())
-    }
-}
-
 /// What a run did.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RunSummary {
@@ -216,6 +147,9 @@ pub struct CoSimulation {
     inputs: [f64; 2],
     warnings: u64,
     buf: Vec<f64>,
+    /// The importer's error behind the last [`PlantError`], so that [`CoSimulation::run`]
+    /// returns it with its FMI function and status.
+    last_error: Option<CosimError>,
 }
 
 impl CoSimulation {
@@ -268,6 +202,7 @@ impl CoSimulation {
             inputs: cfg.initial_inputs,
             warnings,
             buf: vec![0.0; n],
+            last_error: None,
         })
     }
 
@@ -318,33 +253,52 @@ impl CoSimulation {
 
     /// Set the inputs of `cmd` and advance one communication step.
     pub fn advance(&mut self, cmd: &Command) -> Result<Status> {
-        let a = self.slave.set_real(&self.in_vr, &cmd.inputs)?;
-        self.inputs = cmd.inputs;
-        let b = self.slave.do_step(self.t, self.h)?;
+        self.advance_by(cmd.inputs, self.h)
+    }
+
+    /// Set the inputs and advance `dt` seconds (the communication step of [`SwarmPlant::step`]).
+    fn advance_by(&mut self, u: Inputs, dt: f64) -> Result<Status> {
+        let u = u.to_array();
+        let a = self.slave.set_real(&self.in_vr, &u)?;
+        self.inputs = u;
+        let b = self.slave.do_step(self.t, dt)?;
         for s in [a, b] {
             if s == Status::Warning {
                 self.warnings += 1;
             }
         }
-        self.t += self.h;
+        self.t += dt;
         self.k += 1;
         Ok(a.max(b))
     }
 
-    /// Run `steps` samples of measure, control, log, set inputs, step. The controller gets
-    /// every measurement; the sink one row per sample. Stops at the first FMI error (the rows
-    /// before it have been written).
+    /// Run `steps` samples of measure, control, log, set inputs, step, with the one
+    /// closed-loop driver ([`run_loop`]). The controller gets every measurement; the sink one
+    /// row per sample. Stops at the first FMI error (the rows before it have been written).
     pub fn run<C, S>(&mut self, steps: u64, mut controller: C, sink: &mut S) -> Result<RunSummary>
     where
         C: FnMut(&Measurement) -> Command,
         S: LogSink + ?Sized,
     {
         let w0 = self.warnings;
-        for _ in 0..steps {
-            let m = self.measure()?;
-            let cmd = controller(&m);
-            sink.write_row(&log_row(m.t_s, &cmd, m.radii_m))?;
-            self.advance(&cmd)?;
+        let h = self.h;
+        self.last_error = None;
+        let outcome = run_loop(
+            self,
+            steps,
+            h,
+            |t: &Tick<'_>| controller(&Measurement::from_tick(t)),
+            sink,
+        );
+        match outcome {
+            Ok(_) => {}
+            Err(LoopError::Log(e)) => return Err(CosimError::Io(e)),
+            Err(LoopError::Plant { source, .. }) => {
+                return Err(self
+                    .last_error
+                    .take()
+                    .unwrap_or_else(|| CosimError::Usage(source.to_string())))
+            }
         }
         let last = self.measure()?;
         Ok(RunSummary {
@@ -371,17 +325,61 @@ impl CoSimulation {
     }
 }
 
-/// The contract log row of one sample.
-pub fn log_row(t_s: f64, cmd: &Command, radii_m: [f64; 2]) -> LogRow {
-    let mut row = LogRow::new(
-        t_s,
-        cmd.inputs[0] * 1e3,
-        rad_s_to_hz(cmd.inputs[1]),
-        Some([radii_m[0] * 1e3, radii_m[1] * 1e3]),
-    );
-    if let Some(r) = cmd.reference_mm {
-        row.r1_ref_mm = Some(r[0]);
-        row.r2_ref_mm = Some(r[1]);
+impl Measurement {
+    /// The measurement of a driver tick (radii back in m, as the FMU gives them).
+    fn from_tick(t: &Tick<'_>) -> Measurement {
+        Measurement {
+            k: t.k,
+            t_s: t.reading.t_s,
+            inputs: t.inputs.to_array(),
+            radii_m: [t.reading.r_mm[0] * 1e-3, t.reading.r_mm[1] * 1e-3],
+            extra: t.reading.extra.clone(),
+        }
     }
-    row
+}
+
+/// The FMU importer's plant: inputs `z_m`, `omega_m` (or [`CoSimConfig::input_names`]),
+/// radii from `r1`, `r2` (or [`CoSimConfig::output_names`]) converted to mm, the
+/// `extra_outputs` in [`Reading::extra`] (SI). Readings are always valid (the FMU has no
+/// camera); an FMI error is [`PlantError::Interface`] with the function, status and the
+/// FMU's message.
+impl SwarmPlant for CoSimulation {
+    fn time_s(&self) -> f64 {
+        self.t
+    }
+
+    fn inputs(&self) -> Inputs {
+        Inputs::new(self.inputs[0], self.inputs[1])
+    }
+
+    fn measure(&mut self) -> std::result::Result<Reading, PlantError> {
+        match CoSimulation::measure(self) {
+            Ok(m) => Ok(Reading {
+                t_s: m.t_s,
+                r_mm: m.radii_mm(),
+                valid: true,
+                extra: m.extra,
+            }),
+            Err(e) => Err(self.plant_error(e)),
+        }
+    }
+
+    fn step(&mut self, u: Inputs, dt_s: f64) -> std::result::Result<Reading, PlantError> {
+        if let Err(e) = self.advance_by(u, dt_s) {
+            return Err(self.plant_error(e));
+        }
+        SwarmPlant::measure(self)
+    }
+
+    fn describe(&self) -> String {
+        format!("FMU instance {:?}", self.slave.name())
+    }
+}
+
+impl CoSimulation {
+    fn plant_error(&mut self, e: CosimError) -> PlantError {
+        let p = PlantError::Interface(e.to_string());
+        self.last_error = Some(e);
+        p
+    }
 }

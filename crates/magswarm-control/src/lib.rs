@@ -8,8 +8,11 @@
 //!   nearest reachable radii of an infeasible target;
 //! - [`linearize`]: A, B, C, D of ODE (4) at an equilibrium (SI), with JSON, MATLAB and
 //!   python-control output;
-//! - [`sim`]: an in-process closed loop against [`magswarm_model::Plant`] and the seed's
-//!   scenario (Sec. III-D).
+//! - [`plant`]: the plant trait [`SwarmPlant`] (inputs z_m, omega_m in; timestamped radii
+//!   with validity out), implemented for the in-process [`magswarm_model::Plant`];
+//! - [`driver`]: the one closed-loop driver over any [`SwarmPlant`], writing one
+//!   measurement-log row ([`magswarm_log::LogRow`]) per sample;
+//! - [`sim`]: the seed's tracking scenario (Sec. III-D) over the driver.
 //!
 //! Units: the controller's measurement and setpoint are radii in mm (the camera's and the
 //! seed's unit); the inputs it returns are SI (z_m in m, omega in rad/s), like the FMU's.
@@ -46,15 +49,21 @@
 // Units are written in brackets, e.g. `[mm]`, as in the model crate; they are not links.
 #![allow(rustdoc::broken_intra_doc_links)]
 
+pub mod driver;
 pub mod inverse;
 pub mod linearize;
 mod mat2;
 pub mod pid;
+pub mod plant;
 pub mod sim;
 
+pub use driver::{run_loop, Command, LogSink, LoopError, LoopSummary, Tick};
 pub use inverse::{inverse, inverse_with, InverseOptions, InverseResult};
 pub use linearize::{linearize, Linearization};
 pub use pid::{
     ConfigError, Controller, ControllerSnapshot, Gains, Limits, PidConfig, StepInfo, CONFIG_SCHEMA,
 };
-pub use sim::{closed_loop, seed_scenario, summarize, Sample, Segment, SegmentSummary};
+pub use plant::{Inputs, PlantError, Reading, SwarmPlant};
+pub use sim::{
+    closed_loop, seed_scenario, summarize, tracking, Sample, Segment, SegmentSummary, Tracking,
+};

@@ -1,11 +1,15 @@
-//! An in-process closed loop (controller + [`magswarm_model::Plant`]) and the seed's
-//! tracking scenario. The FMU-driven harness runs the same loop through an FMU; this one is
-//! for fast tests and for the figures.
+//! The seed's tracking scenario (setpoint segments) with the PID in closed loop, run by the
+//! one driver ([`crate::driver::run_loop`]) on any [`SwarmPlant`]: the in-process
+//! [`magswarm_model::Plant`] for fast tests and figures ([`closed_loop`]), the FMU importer
+//! in the `pid_tracking` harness ([`tracking`]).
 
+use magswarm_log::LogRow;
 use magswarm_model::Plant;
 use serde::{Deserialize, Serialize};
 
+use crate::driver::{run_loop, Command, LogSink, LoopError, LoopSummary, NoLog, Tick};
 use crate::pid::Controller;
+use crate::plant::SwarmPlant;
 
 /// One constant-setpoint segment of a scenario.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -35,7 +39,8 @@ pub fn seed_scenario() -> Vec<Segment> {
 /// seed's grid), as (z_m [m], omega [rad/s]).
 pub const SEED_START: (f64, f64) = (0.0085, 4.0 * std::f64::consts::TAU);
 
-/// One sample of a closed-loop run (one row of the measurement log).
+/// One sample of a tracking run: the row of the measurement log ([`Sample::log_row`]) plus
+/// what the scenario knows (segment, nearest reachable radii, feasibility).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Sample {
     /// Time [s].
@@ -60,30 +65,73 @@ pub struct Sample {
     pub r2_goal_mm: f64,
 }
 
-/// Run `segments` in closed loop: at each sample the plant's radii are measured, the
-/// controller computes the inputs and the plant is advanced by one sample time under them
-/// (zero-order hold). The plant starts in the state it is in; the controller is reset
-/// (bumplessly) to the plant's inputs and radii unless `keep_controller`.
-pub fn closed_loop(
-    plant: &mut Plant,
+impl Sample {
+    /// The sample as a row of the measurement log (inputs, radii, setpoints).
+    pub fn log_row(&self) -> LogRow {
+        let mut row = LogRow::new(
+            self.t_s,
+            self.z_m_mm,
+            self.f_hz,
+            Some([self.r1_mm, self.r2_mm]),
+        );
+        row.r1_ref_mm = Some(self.r1_ref_mm);
+        row.r2_ref_mm = Some(self.r2_ref_mm);
+        row
+    }
+}
+
+/// A tracking run: one [`Sample`] per step, and whether the controller found each sample's
+/// setpoint feasible.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tracking {
+    /// The samples.
+    pub samples: Vec<Sample>,
+    /// `!target_infeasible()` at each sample.
+    pub feasible: Vec<bool>,
+    /// The driver's summary (last reading, end time).
+    pub summary: LoopSummary,
+}
+
+/// Run `segments` with `ctrl` on any plant, by the one driver: at each sample the plant's
+/// radii are read, the controller computes the inputs, one row goes to `sink`, and the plant
+/// is advanced by one sample time under them (zero-order hold). The controller is reset
+/// (bumplessly) to the plant's inputs and first reading unless `keep_controller`. Sample
+/// times count from 0 at the start of the run. Invalid readings are passed to the
+/// controller unchanged (the PID has no notion of them yet).
+pub fn tracking<P, S>(
+    plant: &mut P,
     ctrl: &mut Controller,
     segments: &[Segment],
     keep_controller: bool,
-) -> Vec<Sample> {
+    sink: &mut S,
+) -> Result<Tracking, LoopError>
+where
+    P: SwarmPlant + ?Sized,
+    S: LogSink + ?Sized,
+{
     let ts = ctrl.sample_time();
-    if !keep_controller {
-        let (z, w) = plant.inputs();
-        ctrl.reset(z, w, plant.state());
+    let mut seg_of = Vec::new();
+    for (i, s) in segments.iter().enumerate() {
+        let n = (s.duration_s / ts).round() as usize;
+        seg_of.extend(std::iter::repeat_n(i, n));
     }
-    let mut out = Vec::new();
+    let mut samples = Vec::with_capacity(seg_of.len());
+    let mut feasible = Vec::with_capacity(seg_of.len());
     let mut t = 0.0;
-    for (k, seg) in segments.iter().enumerate() {
-        let n = (seg.duration_s / ts).round() as usize;
-        for _ in 0..n {
-            let y = plant.state();
+    let summary = run_loop(
+        plant,
+        seg_of.len() as u64,
+        ts,
+        |tick: &Tick<'_>| {
+            let k = tick.k as usize;
+            let seg = segments[seg_of[k]];
+            let y = tick.reading.r_mm;
+            if k == 0 && !keep_controller {
+                ctrl.reset(tick.inputs.z_m, tick.inputs.omega_m, y);
+            }
             let (z, w) = ctrl.step(y, [seg.r1, seg.r2]);
             let goal = ctrl.reachable_setpoint().unwrap_or([seg.r1, seg.r2]);
-            out.push(Sample {
+            samples.push(Sample {
                 t_s: t,
                 z_m_mm: z * 1e3,
                 f_hz: magswarm_model::rad_s_to_hz(w),
@@ -91,18 +139,39 @@ pub fn closed_loop(
                 r2_mm: y[1],
                 r1_ref_mm: seg.r1,
                 r2_ref_mm: seg.r2,
-                segment: k,
+                segment: seg_of[k],
                 r1_goal_mm: goal[0],
                 r2_goal_mm: goal[1],
             });
-            plant.set_inputs(z, w);
-            plant
-                .step(ts)
-                .expect("plant integrates inside the envelope");
+            feasible.push(!ctrl.target_infeasible());
             t += ts;
-        }
-    }
-    out
+            Command::new(z, w).with_reference_mm(seg.r1, seg.r2)
+        },
+        sink,
+    )?;
+    Ok(Tracking {
+        samples,
+        feasible,
+        summary,
+    })
+}
+
+/// [`tracking`] on the in-process plant, without a log: the plant starts in the state it is
+/// in and is left where the run ends.
+///
+/// # Panics
+///
+/// When the plant cannot be integrated (inputs far outside the envelope); the PID's limits
+/// keep it inside.
+pub fn closed_loop(
+    plant: &mut Plant,
+    ctrl: &mut Controller,
+    segments: &[Segment],
+    keep_controller: bool,
+) -> Vec<Sample> {
+    tracking(plant, ctrl, segments, keep_controller, &mut NoLog)
+        .expect("plant integrates inside the envelope")
+        .samples
 }
 
 /// Per-segment figures of a run.

@@ -640,19 +640,10 @@ impl FmuModel for MagSwarm {
     fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), Fmi2Err> {
         match vr {
             vr::Z_M => {
-                // Below -z_offset the swarm plane would cut through the magnet sphere: no
-                // extrapolation means anything there, so it is bad input, like NaN.
-                let floor = -self.model.magnet.z_offset_m;
-                if value <= floor {
-                    return Err(Fmi2Err::error(format!(
-                        "z_m = {:.3} mm would put the swarm inside the magnet (z_m must exceed \
-                         {:.3} mm; validated envelope {}-{} mm)",
-                        value * 1e3,
-                        floor * 1e3,
-                        self.model.envelope.z_min_m * 1e3,
-                        self.model.envelope.z_max_m * 1e3
-                    )));
-                }
+                // The model's rule: a z_m that puts the swarm inside the magnet is bad input.
+                self.model
+                    .check_z_m(value)
+                    .map_err(|e| Fmi2Err::error(e.to_string()))?;
                 if value > MAX_Z_M {
                     return Err(Fmi2Err::error(format!(
                         "z_m = {value:e} m is beyond {MAX_Z_M} m, where the field model has \

@@ -36,9 +36,10 @@ pub mod steady;
 
 pub use envelope::{Envelope, Validity};
 pub use field::{FieldAtSwarm, MagnetConfig};
+pub use integrate::StepError;
 pub use model_file::{Effects, Model, ModelError, SCHEMA};
 pub use params::{Confinement, Conventions, DynParams, LogBase, SteadyParams};
-pub use plant::{Plant, PlantOutputs, PlantSnapshot};
+pub use plant::{InputError, Plant, PlantOutputs, PlantSnapshot};
 pub use steady::SteadyPoint;
 
 /// Field frequency [Hz] to angular velocity [rad/s].

@@ -10,6 +10,47 @@ use crate::integrate::{StepError, Stepper, Tolerances};
 use crate::steady::SteadyPoint;
 use crate::{Model, Validity};
 
+/// Inputs the model cannot evaluate at all (not merely outside the validated envelope):
+/// non-finite values, or a z_m that puts the swarm plane inside the magnet sphere.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct InputError(pub String);
+
+impl Model {
+    /// The rule every caller of the model shares for z_m: below `-z_offset` the swarm plane
+    /// would cut through the magnet sphere, where no extrapolation means anything, so it is
+    /// bad input (like NaN), not extrapolation. The message names z_m, the limit and the
+    /// validated envelope.
+    pub fn check_z_m(&self, z_m: f64) -> Result<(), InputError> {
+        let floor = -self.magnet.z_offset_m;
+        if z_m.is_nan() {
+            return Err(InputError(format!("z_m = {z_m} is not a number")));
+        }
+        if z_m <= floor || !z_m.is_finite() {
+            return Err(InputError(format!(
+                "z_m = {:.3} mm would put the swarm inside the magnet (z_m must exceed \
+                 {:.3} mm; validated envelope {}-{} mm)",
+                z_m * 1e3,
+                floor * 1e3,
+                self.envelope.z_min_m * 1e3,
+                self.envelope.z_max_m * 1e3
+            )));
+        }
+        Ok(())
+    }
+
+    /// Inputs the model can evaluate: z_m by [`Model::check_z_m`], omega finite.
+    pub fn check_inputs(&self, z_m: f64, omega: f64) -> Result<(), InputError> {
+        self.check_z_m(z_m)?;
+        if !omega.is_finite() {
+            return Err(InputError(format!(
+                "omega_m = {omega} rad/s must be a finite number"
+            )));
+        }
+        Ok(())
+    }
+}
+
 /// The plant's state and its cached input terms.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plant {
@@ -79,7 +120,17 @@ impl Plant {
         (self.terms.z_m, self.terms.omega)
     }
 
-    /// Change the inputs; the coefficients of (4) are recomputed only if they differ.
+    /// Change the inputs after checking them with [`Model::check_inputs`]; refused inputs
+    /// leave the plant as it was. Every caller that takes inputs from outside (the FMU, the
+    /// closed-loop driver, a rig's shadow model) should use this.
+    pub fn try_set_inputs(&mut self, z_m: f64, omega: f64) -> Result<(), InputError> {
+        self.model.check_inputs(z_m, omega)?;
+        self.set_inputs(z_m, omega);
+        Ok(())
+    }
+
+    /// Change the inputs, unchecked (for inputs known to be sane, e.g. from a log that was
+    /// read with its rules); the coefficients of (4) are recomputed only if they differ.
     pub fn set_inputs(&mut self, z_m: f64, omega: f64) {
         if z_m != self.terms.z_m || omega != self.terms.omega {
             self.terms = InputTerms::new(&self.model, z_m, omega);
@@ -231,6 +282,24 @@ mod tests {
         let o = p.outputs();
         assert!((o.r1 - o.steady.r1).abs() < 1e-5 && (o.r2 - o.steady.r2).abs() < 1e-5);
         assert!(o.r1 > before.r1, "larger z_m gives a larger swarm");
+    }
+
+    #[test]
+    fn inputs_inside_the_magnet_or_non_finite_are_refused() {
+        let mut p = Plant::new(Model::paper(), 0.0085, hz(4.0));
+        let floor = -p.model().magnet.z_offset_m;
+        let e = p.try_set_inputs(floor, hz(4.0)).unwrap_err();
+        assert!(e.to_string().contains("inside the magnet"), "{e}");
+        assert!(e.to_string().starts_with("z_m = "), "{e}");
+        assert!(p.try_set_inputs(f64::NAN, hz(4.0)).is_err());
+        assert!(p.try_set_inputs(0.01, f64::INFINITY).is_err());
+        assert_eq!(
+            p.inputs(),
+            (0.0085, hz(4.0)),
+            "refused inputs change nothing"
+        );
+        // Below the envelope but outside the magnet is extrapolation, not an error.
+        p.try_set_inputs(floor + 1e-4, hz(4.0)).unwrap();
     }
 
     #[test]
