@@ -12,7 +12,7 @@
 #    magswarm-vision, a shadow model beside it;
 # 4. plots the tracking (target/bridge_demo/tracking.png; needs matplotlib, skipped without).
 #
-# Output: target/bridge_demo/{log.csv,tracking.png,emulate.log}. The run takes 30 s (wall time:
+# Output: target/bridge_demo/{log.csv,tracking.png,emulate.log}. The run takes 40 s (wall time:
 # the devices and the camera run in real time).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

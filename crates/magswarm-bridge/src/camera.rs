@@ -107,9 +107,12 @@ impl Drop for Threaded {
 /// What drives the emulated swarm: the inputs the devices report (z_m [mm], f [Hz]).
 pub type InputProbe = Arc<dyn Fn() -> Option<(f64, f64)> + Send + Sync>;
 
+/// The cell the loop writes the devices' inputs into.
+pub type InputCell = Arc<Mutex<Option<(f64, f64)>>>;
+
 /// Shared latest inputs, written by the loop and read by the emulated camera.
-pub fn command_probe() -> (Arc<Mutex<Option<(f64, f64)>>>, InputProbe) {
-    let cell: Arc<Mutex<Option<(f64, f64)>>> = Arc::new(Mutex::new(None));
+pub fn command_probe() -> (InputCell, InputProbe) {
+    let cell: InputCell = Arc::new(Mutex::new(None));
     let c2 = cell.clone();
     (cell, Arc::new(move || c2.lock().ok().and_then(|g| *g)))
 }

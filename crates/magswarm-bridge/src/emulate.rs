@@ -18,7 +18,7 @@ pub fn robot_sim_config(cfg: &RigConfig) -> RobotSimConfig {
     let l = &cfg.limits;
     let z_start = r.z_tcp_at_zero_m + 0.5 * (l.z_m_mm[0] + l.z_m_mm[1]) * 1e-3;
     RobotSimConfig {
-        start_pose: [0.3, -0.2, z_start, 0.0, 3.1416, 0.0],
+        start_pose: [0.3, -0.2, z_start, 0.0, std::f64::consts::PI, 0.0],
         lag_s: cfg.emulator.lag_s.unwrap_or(0.05),
         z_limits_m: [
             r.z_tcp_at_zero_m + l.z_m_mm[0] * 1e-3,

@@ -15,6 +15,7 @@ pub mod check;
 pub mod config;
 pub mod emulate;
 pub mod measure;
+pub mod rig;
 pub mod rtde;
 pub mod run;
 pub mod safety;

@@ -291,32 +291,6 @@ pub fn open_serial(
     Ok(Tmcl::new(port, address, motor, velocity_per_hz))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn frames_match_the_tmcl_layout() {
-        // ROR motor 0 at 1000 on module 1: 01 01 00 00 00 00 03 E8, checksum 0xED.
-        let f = request(1, cmd::ROR, 0, 0, 1000);
-        assert_eq!(f, [1, 1, 0, 0, 0, 0, 0x03, 0xe8, 0xed]);
-        let r = Reply {
-            reply_address: 2,
-            module_address: 1,
-            status: 100,
-            instruction: 1,
-            value: 1000,
-        };
-        assert_eq!(Reply::decode(&r.encode()).unwrap(), r);
-        let mut bad = r.encode();
-        bad[8] ^= 1;
-        assert!(matches!(
-            Reply::decode(&bad),
-            Err(StepperError::BadReply(_))
-        ));
-    }
-}
-
 /// A stepper driven from its own thread, so a slow serial line (a TMCL transaction takes
 /// about 20 ms at 9600 baud) never delays the control loop: the loop hands over the
 /// frequency; the thread sends ROR when it changes, polls the actual speed otherwise (so a
@@ -410,5 +384,31 @@ impl StepperThread {
 impl Drop for StepperThread {
     fn drop(&mut self) {
         self.stop();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_match_the_tmcl_layout() {
+        // ROR motor 0 at 1000 on module 1: 01 01 00 00 00 00 03 E8, checksum 0xED.
+        let f = request(1, cmd::ROR, 0, 0, 1000);
+        assert_eq!(f, [1, 1, 0, 0, 0, 0, 0x03, 0xe8, 0xed]);
+        let r = Reply {
+            reply_address: 2,
+            module_address: 1,
+            status: 100,
+            instruction: 1,
+            value: 1000,
+        };
+        assert_eq!(Reply::decode(&r.encode()).unwrap(), r);
+        let mut bad = r.encode();
+        bad[8] ^= 1;
+        assert!(matches!(
+            Reply::decode(&bad),
+            Err(StepperError::BadReply(_))
+        ));
     }
 }

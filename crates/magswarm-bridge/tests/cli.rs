@@ -195,9 +195,9 @@ fn end_to_end_emulated_closed_loop_tracks_the_targets() {
     // The PID of magswarm-control on setpoints, through RTDE, TMCL and the emulated camera.
     let rig = rig(&config_text("", "", ""));
     let targets = rig.dir.path().join("targets.csv");
-    // From rest at (8.5 mm, 4 Hz) (radii 8.31, 11.49 mm) to a setpoint the model reaches at
-    // about (12 mm, 6 Hz).
-    std::fs::write(&targets, "t_s,r1_ref_mm,r2_ref_mm\n0,8.50,12.07\n").unwrap();
+    // From the emulated robot's start (z_m 13.5 mm, 4 Hz) to a setpoint the model reaches at
+    // about (6.3 mm, 9 Hz).
+    std::fs::write(&targets, "t_s,r1_ref_mm,r2_ref_mm\n0,8.05,10.98\n").unwrap();
     let out = Command::new(BIN)
         .args(["run", "--config"])
         .arg(&rig.cfg_path)
@@ -205,7 +205,7 @@ fn end_to_end_emulated_closed_loop_tracks_the_targets() {
         .arg(&targets)
         .arg("--log")
         .arg(rig.log_path())
-        .args(["--duration", "6"])
+        .args(["--duration", "8"])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -214,7 +214,7 @@ fn end_to_end_emulated_closed_loop_tracks_the_targets() {
     assert!(log.rows.len() >= 100, "{} rows", log.rows.len());
     let err = |r: &magswarm_log::LogRow| {
         let m = r.radii().unwrap();
-        (m[0] - 8.50).abs().max((m[1] - 12.07).abs())
+        (m[0] - 8.05).abs().max((m[1] - 10.98).abs())
     };
     let first = err(&log.rows[0]);
     let tail: Vec<f64> = log.rows[log.rows.len() - 20..].iter().map(err).collect();
@@ -227,9 +227,21 @@ fn end_to_end_emulated_closed_loop_tracks_the_targets() {
         final_err < 0.15,
         "tracking error {final_err} mm at the end (start {first})"
     );
-    // Setpoints are logged, the robot moved toward ~12 mm, and never left the limits.
-    assert!(log.rows.iter().all(|r| r.r1_ref_mm == Some(8.50)));
+    // Setpoints are logged, the robot moved toward ~6.3 mm, and never left the limits.
+    assert!(log.rows.iter().all(|r| r.r1_ref_mm == Some(8.05)));
     let zlast = log.rows.last().unwrap().z_m_mm;
-    assert!((zlast - 12.0).abs() < 2.5, "z_m ended at {zlast}");
+    assert!((zlast - 6.3).abs() < 2.0, "z_m ended at {zlast}");
+    // The robot's reported pose followed the command.
+    let zc = log
+        .layout
+        .extra_columns
+        .iter()
+        .position(|c| c == "z_meas_mm")
+        .unwrap();
+    let zmeas: f64 = log.rows.last().unwrap().extra[zc].parse().unwrap();
+    assert!(
+        (zmeas - zlast).abs() < 0.3,
+        "robot at {zmeas} mm, commanded {zlast} mm"
+    );
     rig.assert_targets_inside();
 }

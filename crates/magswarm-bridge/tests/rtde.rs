@@ -9,7 +9,7 @@ use magswarm_bridge::ur::{self, Dashboard, ServoScript};
 
 fn sim(program_running: bool) -> RobotSimConfig {
     RobotSimConfig {
-        start_pose: [0.3, -0.2, 0.41, 0.0, 3.14, 0.0],
+        start_pose: [0.3, -0.2, 0.41, 0.0, 2.0, 0.0],
         lag_s: 0.02,
         z_limits_m: [0.4035, 0.4235],
         z_rate_m_s: 0.01,
