@@ -86,8 +86,9 @@ pub use magswarm_model::registry::Param as ParamSpec;
 
 /// Numeric parameters in value-reference order (vr = PARAM_BASE + index): the registry's rows
 /// marked for the FMU. A parameter added to the registry appears here by itself.
-pub static PARAMS: LazyLock<Vec<&'static ParamSpec>> =
-    LazyLock::new(|| magswarm_model::registry::fmu_params().collect());
+/// (Freed when the library is unloaded, like the variable table.)
+pub static PARAMS: LazyLock<&'static [&'static ParamSpec]> =
+    LazyLock::new(|| magswarm_fmi2::unload::leak(magswarm_model::registry::fmu_params().collect()));
 
 /// Unit definitions used by the table.
 static UNITS: &[UnitDefinition] = &[
@@ -272,7 +273,7 @@ static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
     }),
     units: UNITS,
     log_categories: LOG_CATEGORIES,
-    variables: Box::leak(build_variables().into_boxed_slice()),
+    variables: magswarm_fmi2::unload::leak(build_variables()),
 });
 
 /// The modelDescription.xml for an FMU whose default model is `baked`: the parameter start
