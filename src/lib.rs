@@ -15,6 +15,7 @@ pub mod control_cli;
 pub mod cosim;
 pub mod diagnose;
 pub mod identify;
+pub mod lab;
 pub mod outputs;
 pub mod packaging;
 pub mod paper;

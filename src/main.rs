@@ -30,6 +30,8 @@ enum Cmd {
     Inverse(magswarm::control_cli::InverseArgs),
     /// Linearise the plant at an operating point (A, B, C, D).
     Linearize(magswarm::control_cli::LinearizeArgs),
+    /// Virtual lab: synthetic measurement logs from a truth model with chosen effects.
+    Lab(magswarm::lab::LabArgs),
 }
 
 /// Every output path of the command, checked (and missing folders created) before it runs.
@@ -57,6 +59,11 @@ fn prepare_outputs(cmd: &Cmd) -> anyhow::Result<()> {
             }
         }
         Cmd::Diagnose(a) => prepare_dir("--out", &a.out)?,
+        Cmd::Lab(a) => {
+            if !a.print_scenario {
+                prepare_file("--out", &a.out)?;
+            }
+        }
         Cmd::Inverse(_) | Cmd::Linearize(_) => {}
     }
     Ok(())
@@ -76,6 +83,7 @@ fn main() {
         Cmd::Diagnose(a) => magswarm::diagnose::run(a),
         Cmd::Inverse(a) => magswarm::control_cli::run_inverse(a),
         Cmd::Linearize(a) => magswarm::control_cli::run_linearize(a),
+        Cmd::Lab(a) => magswarm::lab::run(a),
     };
     if let Err(e) = result {
         eprintln!("magswarm: error: {e:#}");

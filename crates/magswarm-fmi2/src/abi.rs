@@ -1,6 +1,8 @@
 //! The C types of the FMI 2.0 ABI, spelled out in Rust.
 //!
-//! These mirror `fmi2TypesPlatform.h` and `fmi2FunctionTypes.h` of the standard. They are
+//! These mirror `fmi2TypesPlatform.h` and `fmi2FunctionTypes.h` of the standard; this module
+//! depends on nothing else in the crate (which log category goes with which status is the
+//! logger's business: [`crate::log::category_of`]). They are
 //! written by hand because no crate exports (as opposed to imports) FMI 2.0 well, and
 //! because the exact widths matter: `fmi2Boolean` is a C `int`, not a Rust `bool`, and
 //! enums that *come in* from the importer are taken as plain `c_int` so that an
@@ -58,20 +60,6 @@ pub enum Fmi2Status {
     Fatal = 4,
     /// `fmi2Pending`: never produced here (no asynchronous `fmi2DoStep`).
     Pending = 5,
-}
-
-impl Fmi2Status {
-    /// The log category the shell uses for a message of this status.
-    pub fn category(self) -> &'static str {
-        match self {
-            Fmi2Status::Ok => crate::log::CAT_EVENTS,
-            Fmi2Status::Warning => crate::log::CAT_WARNING,
-            Fmi2Status::Discard => crate::log::CAT_DISCARD,
-            Fmi2Status::Error => crate::log::CAT_ERROR,
-            Fmi2Status::Fatal => crate::log::CAT_FATAL,
-            Fmi2Status::Pending => crate::log::CAT_PENDING,
-        }
-    }
 }
 
 /// `fmi2Type` as an integer: `fmi2ModelExchange`.

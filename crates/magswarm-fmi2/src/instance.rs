@@ -95,7 +95,7 @@ impl<M: FmuModel> Instance<M> {
     ) -> Fmi2Status {
         self.logger.log(
             status,
-            status.category(),
+            crate::log::category_of(status),
             &format!("{}: {}", func.name(), message.as_ref()),
         );
         self.raise(func, status);

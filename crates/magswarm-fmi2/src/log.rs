@@ -63,6 +63,18 @@ pub const SHELL_CATEGORIES: &[LogCategory] = &[
     },
 ];
 
+/// The log category the shell uses for a message of this status.
+pub fn category_of(status: Fmi2Status) -> &'static str {
+    match status {
+        Fmi2Status::Ok => CAT_EVENTS,
+        Fmi2Status::Warning => CAT_WARNING,
+        Fmi2Status::Discard => CAT_DISCARD,
+        Fmi2Status::Error => CAT_ERROR,
+        Fmi2Status::Fatal => CAT_FATAL,
+        Fmi2Status::Pending => CAT_PENDING,
+    }
+}
+
 /// The shell's categories followed by the model's, without duplicates.
 pub fn all_categories(model: &[LogCategory]) -> Vec<LogCategory> {
     let mut out: Vec<LogCategory> = SHELL_CATEGORIES.to_vec();

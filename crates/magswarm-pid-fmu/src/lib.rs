@@ -1,5 +1,5 @@
 //! `MagSwarmPID.fmu`: the decoupled 2x2 PID of `magswarm-control` behind the generic FMI 2.0
-//! Co-Simulation shell of `magswarm-fmi2`, so that the closed loop of issue 4 runs in any
+//! Co-Simulation shell of `magswarm-fmi2`, so that the closed loop (plant FMU + controller FMU) runs in any
 //! co-simulation master (fmpy, libcosim, an SSP or OSP system file wiring it to `MagSwarm.fmu`).
 //!
 //! This crate only maps FMI variables onto [`magswarm_control::Controller`]; the controller
