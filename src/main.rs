@@ -60,6 +60,7 @@ fn prepare_outputs(cmd: &Cmd) -> anyhow::Result<()> {
                 prepare_dir("--report", d)?;
             }
         }
+        Cmd::Diagnose(a) => prepare_dir("--out", &a.out)?,
         Cmd::Lab(a) => {
             if !a.print_scenario {
                 prepare_file("--out", &a.out)?;
