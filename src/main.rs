@@ -56,6 +56,7 @@ fn prepare_outputs(cmd: &Cmd) -> anyhow::Result<()> {
                 prepare_dir("--report", d)?;
             }
         }
+        Cmd::Sweep(a) => prepare_file("--out", &a.out)?,
         Cmd::Inverse(_) | Cmd::Linearize(_) => {}
     }
     Ok(())
