@@ -14,6 +14,7 @@ pub use magswarm_model as model;
 pub mod control_cli;
 pub mod cosim;
 pub mod identify;
+pub mod lab;
 pub mod outputs;
 pub mod packaging;
 pub mod paper;

@@ -30,6 +30,8 @@ enum Cmd {
     Linearize(magswarm::control_cli::LinearizeArgs),
     /// Monte Carlo of the seed's closed-loop tracking scenario under parameter uncertainty.
     Sweep(magswarm::sweep::SweepArgs),
+    /// Virtual lab: synthetic measurement logs from a truth model with chosen effects.
+    Lab(magswarm::lab::LabArgs),
 }
 
 /// Every output path of the command, checked (and missing folders created) before it runs.
@@ -57,6 +59,11 @@ fn prepare_outputs(cmd: &Cmd) -> anyhow::Result<()> {
             }
         }
         Cmd::Sweep(a) => prepare_file("--out", &a.out)?,
+        Cmd::Lab(a) => {
+            if !a.print_scenario {
+                prepare_file("--out", &a.out)?;
+            }
+        }
         Cmd::Inverse(_) | Cmd::Linearize(_) => {}
     }
     Ok(())
@@ -76,6 +83,7 @@ fn main() {
         Cmd::Inverse(a) => magswarm::control_cli::run_inverse(a),
         Cmd::Linearize(a) => magswarm::control_cli::run_linearize(a),
         Cmd::Sweep(a) => magswarm::sweep::run(a.clone()),
+        Cmd::Lab(a) => magswarm::lab::run(a),
     };
     if let Err(e) = result {
         eprintln!("magswarm: error: {e:#}");

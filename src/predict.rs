@@ -53,13 +53,15 @@ pub struct InputRow {
 /// Relative/absolute tolerance of the replay integrator (radii in mm).
 pub const REPLAY_RTOL: f64 = 1e-7;
 
-/// Replay one session: the state [mm] at each row (see the module docs for the semantics).
+/// Replay one session: the observed radii [mm] (ODE (4) plus the model's effects) at each row (see the module docs for the semantics).
 /// `rtol` sets the integrator's relative and absolute (mm) tolerance.
 pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2]>> {
     let Some(first) = rows.first() else {
         return Ok(Vec::new());
     };
     let mut plant = Plant::new(model.clone(), first.z_mm * 1e-3, hz_to_rad_s(first.f_hz));
+    // The plant's clock is the session time (effects such as particle drift depend on it).
+    plant.set_time(first.t);
     {
         let tol = plant.tolerances_mut();
         tol.rtol = rtol;
@@ -79,7 +81,8 @@ pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2
             })?;
         }
         t_prev = r.t;
-        out.push(plant.state());
+        let o = plant.outputs();
+        out.push([o.r1, o.r2]);
     }
     Ok(out)
 }
@@ -122,10 +125,11 @@ pub fn predict_log(model: &Model, log: &Log) -> Result<Vec<([f64; 2], [f64; 2])>
             }
         })?;
         for (k, &i) in idx.iter().enumerate() {
-            let sp = magswarm_model::steady::evaluate(
+            let sp = magswarm_model::effects::observed_steady(
                 model,
                 rows[k].z_mm * 1e-3,
                 hz_to_rad_s(rows[k].f_hz),
+                rows[k].t,
             );
             out[i] = (pred[k], [sp.r1, sp.r2]);
         }

@@ -17,6 +17,20 @@
 #[macro_export]
 macro_rules! export_fmi2 {
     ($model:ty) => {
+        /// Frees the model's one-time tables ([`$crate::unload::leak`]) when the loader
+        /// unloads this library (`dlclose`), so nothing it allocated outlives it.
+        #[cfg(target_os = "linux")]
+        #[used]
+        #[link_section = ".fini_array"]
+        static MAGSWARM_FMI2_RELEASE_AT_UNLOAD: extern "C" fn() = {
+            extern "C" fn release() {
+                // SAFETY: runs when the library is unloaded or the process exits; no fmi2*
+                // function of this library runs after that.
+                unsafe { $crate::unload::release_all() }
+            }
+            release
+        };
+
         /// FMI 2.0 `fmi2GetTypesPlatform`.
         #[no_mangle]
         pub extern "C" fn fmi2GetTypesPlatform() -> *const ::std::ffi::c_char {

@@ -114,6 +114,7 @@ pub mod snapshot;
 pub mod state;
 pub mod table;
 pub mod units;
+pub mod unload;
 pub mod uri;
 pub mod xml;
 

@@ -86,8 +86,9 @@ pub use magswarm_model::registry::Param as ParamSpec;
 
 /// Numeric parameters in value-reference order (vr = PARAM_BASE + index): the registry's rows
 /// marked for the FMU. A parameter added to the registry appears here by itself.
-pub static PARAMS: LazyLock<Vec<&'static ParamSpec>> =
-    LazyLock::new(|| magswarm_model::registry::fmu_params().collect());
+/// (Freed when the library is unloaded, like the variable table.)
+pub static PARAMS: LazyLock<&'static [&'static ParamSpec]> =
+    LazyLock::new(|| magswarm_fmi2::unload::leak(magswarm_model::registry::fmu_params().collect()));
 
 /// Unit definitions used by the table.
 static UNITS: &[UnitDefinition] = &[
@@ -101,6 +102,7 @@ static UNITS: &[UnitDefinition] = &[
     units::HERTZ,
     units::PER_SECOND,
     units::METRE_PER_SECOND,
+    units::SECOND,
 ];
 
 static LOG_CATEGORIES: &[LogCategory] = &[
@@ -237,7 +239,7 @@ fn build_variables() -> Vec<Variable> {
         Variable::string("model_file", vr::MODEL_FILE)
             .parameter()
             .start_string("")
-            .description("path of a model JSON (magswarm-model/1) replacing the defaults; empty: resources/model.json"),
+            .description("path of a model JSON (magswarm-model/2, or /1) replacing the defaults; empty: resources/model.json"),
     ];
     for (i, p) in PARAMS.iter().enumerate() {
         let mut var = Variable::real(p.name, vr::PARAM_BASE + i as u32)
@@ -272,7 +274,7 @@ static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
     }),
     units: UNITS,
     log_categories: LOG_CATEGORIES,
-    variables: Box::leak(build_variables().into_boxed_slice()),
+    variables: magswarm_fmi2::unload::leak(build_variables()),
 });
 
 /// The modelDescription.xml for an FMU whose default model is `baked`: the parameter start
@@ -584,10 +586,12 @@ impl FmuModel for MagSwarm {
         self.check_outputs("fmi2ExitInitializationMode")
     }
 
-    fn do_step(&mut self, ctx: &mut Ctx<'_>, _current_time: f64, step: f64) -> Result<(), Fmi2Err> {
+    fn do_step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), Fmi2Err> {
         self.check_envelope(ctx);
         let (z, w) = (self.z_m, self.omega);
         let plant = self.plant();
+        // The plant's clock is the FMU's (time-dependent effects such as particle drift).
+        plant.set_time(current_time);
         plant.step(step).map_err(|e| {
             Fmi2Err::error(format!(
                 "doStep: ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",

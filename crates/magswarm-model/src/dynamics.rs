@@ -52,17 +52,18 @@ impl InputTerms {
         let d = &model.dynamics;
         let sp = steady::evaluate(model, z_m, omega);
         let (w, dw) = steady::norm_freq(model, omega);
-        let wp = if w > 0.0 {
-            pow_int_or_real(w, d.p)
-        } else {
-            0.0
-        };
+        // The swarm's rotation rate (|omega| unless the phase_lag effect makes it step out).
+        let (w, dw, dw_dz) = steady::swarm_rate(model, w, dw, &sp.field);
+        let wp = if w > 0.0 { pow_int_or_real(w, d.p) } else { 0.0 };
         let dwp = if w > 0.0 { d.p * wp / w * dw } else { 0.0 };
         let e0 = d.K_tau * wp * d.s_B * sp.field.b;
-        let de0 = [
+        let mut de0 = [
             d.K_tau * wp * d.s_B * sp.field.db_dz,
             d.K_tau * dwp * d.s_B * sp.field.b,
         ];
+        if dw_dz != 0.0 && w > 0.0 {
+            de0[0] += d.K_tau * d.p * wp / w * dw_dz * d.s_B * sp.field.b;
+        }
         let mut terms = InputTerms {
             z_m,
             omega,

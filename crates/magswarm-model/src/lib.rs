@@ -12,9 +12,12 @@
 //! - [`integrate`]: an allocation-free Dormand-Prince integrator for the FMU's hot path;
 //! - [`plant`]: the plant as a stateful object (inputs in, radii out) that the FMU, the
 //!   virtual lab and `predict` all drive;
-//! - [`model_file`]: the versioned JSON model file (`magswarm-model/1`);
+//! - [`effects`]: the unmodelled effects as model terms (phase lag, cohesion loss, formation
+//!   lag, particle drift, centroid offset, camera bias), each nesting the seed's model;
+//! - [`model_file`]: the versioned JSON model file (`magswarm-model/2`, reads `/1`);
 //! - [`registry`]: one table of every numeric parameter (name, unit, bounds, accessors),
-//!   which validation, the FMU's parameters and `identify` iterate over;
+//!   which validation, the FMU's parameters and `identify` iterate over (effect parameters
+//!   included);
 //! - [`reconstruction`]: the constants Table I leaves out, and why they have their values.
 //!
 //! Units: inputs are SI (z_m in m, omega_m in rad/s); radii are in mm (Table I's unit for
@@ -24,6 +27,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod dynamics;
+pub mod effects;
 pub mod envelope;
 pub mod field;
 pub mod integrate;
@@ -36,7 +40,7 @@ pub mod steady;
 
 pub use envelope::{Envelope, Validity};
 pub use field::{FieldAtSwarm, MagnetConfig};
-pub use model_file::{Effects, Model, ModelError, SCHEMA};
+pub use model_file::{Effects, Model, ModelError, SCHEMA, SCHEMA_V1};
 pub use params::{Confinement, Conventions, DynParams, LogBase, SteadyParams};
 pub use plant::{Plant, PlantOutputs, PlantSnapshot};
 pub use steady::SteadyPoint;

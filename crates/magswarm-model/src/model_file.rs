@@ -1,6 +1,10 @@
-//! The model file: one versioned JSON (`"schema": "magswarm-model/1"`) holding every
-//! parameter of the plant. `identify` and `diagnose` write it; the FMU, `predict` and the
-//! bridge's shadow model read it.
+//! The model file: one versioned JSON (`"schema": "magswarm-model/2"`) holding every
+//! parameter of the plant and the unmodelled effects switched on. `identify` and `diagnose`
+//! write it; the FMU, `predict`, the lab and the bridge's shadow model read it.
+//!
+//! Versions: `magswarm-model/1` files (no effects: their `effects` section is empty) are
+//! still read, and are upgraded to the current schema in memory; files are written as
+//! `magswarm-model/2`.
 //!
 //! Loading is strict on purpose: a model file drives hardware-facing experiments, so an
 //! unknown field (a typo, a newer version), a missing one, a non-finite or an out-of-range
@@ -13,14 +17,13 @@ use crate::envelope::Envelope;
 use crate::field::MagnetConfig;
 use crate::params::{Conventions, DynParams, SteadyParams};
 
-/// The schema tag every model file carries.
-pub const SCHEMA: &str = "magswarm-model/1";
+pub use crate::effects::Effects;
 
-/// Unmodelled effects switched on in the model. None exist in this schema version yet;
-/// the section is reserved so that files written by `diagnose` stay in one format.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Effects {}
+/// The schema tag model files are written with.
+pub const SCHEMA: &str = "magswarm-model/2";
+
+/// The first schema version (no effects), still read.
+pub const SCHEMA_V1: &str = "magswarm-model/1";
 
 /// A complete plant model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -77,7 +80,7 @@ impl Model {
     /// Parse and validate a model from JSON text; `source_name` appears in errors.
     pub fn from_json_str(text: &str, source_name: &str) -> Result<Model, ModelError> {
         let de = &mut serde_json::Deserializer::from_str(text);
-        let model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
+        let mut model: Model = serde_path_to_error::deserialize(de).map_err(|e| {
             let path = e.path().to_string();
             let inner = e.into_inner();
             ModelError {
@@ -90,6 +93,9 @@ impl Model {
             e.source_name = source_name.to_string();
             e
         })?;
+        if model.schema == SCHEMA_V1 {
+            model.schema = SCHEMA.to_string();
+        }
         Ok(model)
     }
 
@@ -132,10 +138,23 @@ impl Model {
     /// with its JSON path.
     pub fn validate(&self) -> Result<(), ModelError> {
         let mut c = Checker::default();
-        if self.schema != SCHEMA {
+        if self.schema == SCHEMA_V1 {
+            if !self.effects.is_empty() {
+                c.fail(
+                    "effects",
+                    format!(
+                        "effects need schema {SCHEMA:?} ({SCHEMA_V1:?} has none): switched on: {}",
+                        self.effects.enabled().join(", ")
+                    ),
+                );
+            }
+        } else if self.schema != SCHEMA {
             c.fail(
                 "schema",
-                format!("unsupported schema {:?}, expected {SCHEMA:?}", self.schema),
+                format!(
+                    "unsupported schema {:?}, expected {SCHEMA:?} (or {SCHEMA_V1:?})",
+                    self.schema
+                ),
             );
         }
         // Every numeric parameter: its physical range from the registry.
@@ -151,6 +170,7 @@ impl Model {
         if e.z_max_m <= e.z_min_m {
             c.fail("envelope.z_max_m", "must be larger than z_min_m".into());
         }
+
         match c.first {
             None => Ok(()),
             Some((path, message)) => Err(ModelError {
@@ -191,7 +211,7 @@ mod tests {
     fn paper_model_round_trips() {
         let m = Model::paper();
         let text = m.to_json().unwrap();
-        assert!(text.contains("\"schema\": \"magswarm-model/1\""));
+        assert!(text.contains("\"schema\": \"magswarm-model/2\""));
         let back = Model::from_json_str(&text, "t").unwrap();
         assert_eq!(m, back);
     }

@@ -21,6 +21,9 @@ pub struct Plant {
     t: f64,
     stepper: Stepper,
     tol: Tolerances,
+    /// Slow formation mode of the `formation_lag` effect, per axis (x, dx/dt) [mm, mm/s]:
+    /// [x1, v1, x2, v2]. Unused (and kept on the map) when the effect is off.
+    form: [f64; 4],
 }
 
 /// Everything a [`Plant`] carries besides its model: enough to rebuild it bit-identically
@@ -41,16 +44,20 @@ pub struct PlantSnapshot {
     pub tol: [f64; 3],
     /// Most internal steps per communication step.
     pub max_steps: u32,
+    /// Slow formation mode of the `formation_lag` effect [x1, v1, x2, v2] (mm, mm/s).
+    #[serde(default)]
+    pub form: [f64; 4],
 }
 
 /// What the plant reports at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlantOutputs {
-    /// Dynamic radius r1 [mm].
+    /// Dynamic radius r1 [mm], as observed (ODE (4) plus the enabled effects).
     pub r1: f64,
-    /// Dynamic radius r2 [mm].
+    /// Dynamic radius r2 [mm], as observed (ODE (4) plus the enabled effects).
     pub r2: f64,
-    /// The steady map at the current inputs (r1_ss, r2_ss, S, field, Jacobian).
+    /// The steady map at the current inputs (r1_ss, r2_ss, S, field, Jacobian), with the
+    /// enabled effects (radii and Jacobian as observed at the current time).
     pub steady: SteadyPoint,
 }
 
@@ -66,7 +73,16 @@ impl Plant {
             t: 0.0,
             stepper: Stepper::default(),
             tol: Tolerances::default(),
+            form: [r[0], 0.0, r[1], 0.0],
         }
+    }
+
+    /// Replace the model, keeping the state, the time and the inputs (the coefficients of
+    /// (4) are recomputed). For a plant whose parameters change during a run (a lab truth
+    /// with a moving centroid, a shadow model updated by identification).
+    pub fn set_model(&mut self, model: Model) {
+        self.terms = InputTerms::new(&model, self.terms.z_m, self.terms.omega);
+        self.model = model;
     }
 
     /// The model in use.
@@ -89,11 +105,13 @@ impl Plant {
     /// Put the state on the steady map of the current inputs (formation complete).
     pub fn settle(&mut self) {
         self.r = self.terms.steady.radii();
+        self.form = [self.r[0], 0.0, self.r[1], 0.0];
     }
 
-    /// Set the state directly [mm].
+    /// Set the state directly [mm] (the slow formation mode, if any, starts there at rest).
     pub fn set_state(&mut self, r: [f64; 2]) {
         self.r = r;
+        self.form = [r[0], 0.0, r[1], 0.0];
     }
 
     /// Radii state [mm].
@@ -131,6 +149,7 @@ impl Plant {
             steps: [self.stepper.steps, self.stepper.rejected],
             tol: [self.tol.rtol, self.tol.atol, self.tol.h_max],
             max_steps: self.tol.max_steps,
+            form: self.form,
         }
     }
 
@@ -140,6 +159,7 @@ impl Plant {
         let mut p = Plant::new(model, s.inputs[0], s.inputs[1]);
         p.r = s.r;
         p.t = s.t;
+        p.form = s.form;
         p.stepper = Stepper {
             h_next: s.h_next,
             steps: s.steps[0],
@@ -199,15 +219,45 @@ impl Plant {
         }
         self.r = y;
         self.t += h;
+        if let Some(fl) = &self.model.effects.formation_lag {
+            let target = self.terms.steady.radii();
+            let a = fl.propagate([self.form[0], self.form[1]], target[0], h);
+            let b = fl.propagate([self.form[2], self.form[3]], target[1], h);
+            self.form = [a[0], a[1], b[0], b[1]];
+        }
         Ok(())
     }
 
-    /// Outputs at the current instant.
+    /// Physical footprint radii [mm] before the measurement effects: the ODE (4) state, or,
+    /// with `formation_lag`, its blend with the slow formation mode.
+    pub fn footprint(&self) -> [f64; 2] {
+        match &self.model.effects.formation_lag {
+            None => self.r,
+            Some(fl) => {
+                let a = fl.share;
+                [
+                    (1.0 - a) * self.r[0] + a * self.form[0],
+                    (1.0 - a) * self.r[1] + a * self.form[2],
+                ]
+            }
+        }
+    }
+
+    /// Outputs at the current instant (every enabled effect applied).
     pub fn outputs(&self) -> PlantOutputs {
+        let fx = &self.model.effects;
+        if fx.is_empty() {
+            return PlantOutputs {
+                r1: self.r[0],
+                r2: self.r[1],
+                steady: self.terms.steady,
+            };
+        }
+        let r = fx.observe(self.footprint(), self.t);
         PlantOutputs {
-            r1: self.r[0],
-            r2: self.r[1],
-            steady: self.terms.steady,
+            r1: r[0],
+            r2: r[1],
+            steady: fx.observe_steady(&self.terms.steady, self.t),
         }
     }
 

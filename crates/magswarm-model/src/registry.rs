@@ -166,6 +166,34 @@ macro_rules! param {
     (@fmu $fmu:expr) => { $fmu };
 }
 
+/// A row for a field of an effect: name `effect.field`, path `effects.effect.field`.
+macro_rules! effect_param {
+    ($eff:ident . $field:ident, $ty:ident, $unit:expr, $desc:literal, $physical:expr, $fit:expr) => {
+        Param {
+            name: concat!(stringify!($eff), ".", stringify!($field)),
+            path: concat!("effects.", stringify!($eff), ".", stringify!($field)),
+            group: Group::Effect(stringify!($eff)),
+            unit: $unit,
+            description: $desc,
+            physical: $physical,
+            fit: $fit,
+            fmu: true,
+            get: |m: &Model| {
+                m.effects
+                    .$eff
+                    .unwrap_or(crate::effects::$ty::NEUTRAL)
+                    .$field
+            },
+            set: |m: &mut Model, v: f64| {
+                m.effects
+                    .$eff
+                    .get_or_insert(crate::effects::$ty::NEUTRAL)
+                    .$field = v;
+            },
+        }
+    };
+}
+
 /// Every numeric parameter, in the FMU's value-reference order.
 #[rustfmt::skip]
 pub static PARAMS: &[Param] = &[
@@ -206,8 +234,21 @@ pub static PARAMS: &[Param] = &[
     param!("g_unit", conventions.g_unit_t_per_m, Conventions, Some("T/m"), "unit of g_z inside (7) (reconstructed)", Positive, None),
     param!("s_floor", conventions.s_floor, Conventions, None, "positive floor of S_x, S_y", Positive, None),
     param!("log_arg_floor", conventions.log_arg_floor, Conventions, None, "smallest argument allowed inside the logarithm of (7)", range(1e-300, 1.0), None, fmu: false),
-    // Effect parameters go here, below the existing rows (value references must not move):
-    // param!("<name>", effects.<effect>.<field>, ...) with group Effect("<effect>").
+    // Unmodelled effects (crate::effects; docs/effects.md), below the existing rows so that value
+    // references do not move. Reading an effect that is off gives its neutral value; writing
+    // switches it on (its other parameters neutral).
+    effect_param!(phase_lag.f_so_hz, PhaseLag, Some("Hz"), "phase_lag: step-out frequency of the swarm rotation at the field B_ref", range(0.1, 1.0e6), fit(2.0, 1.0e4, Log, false)),
+    effect_param!(phase_lag.nu, PhaseLag, None, "phase_lag: field exponent of the step-out frequency", range(0.0, 4.0), fit(0.0, 3.0, Sin, false)),
+    effect_param!(cohesion_loss.z_c_mm, CohesionLoss, Some("mm"), "cohesion_loss: distance past which the confinement fades", range(-20.0, 100.0), fit(3.5, 23.5, Sin, false)),
+    effect_param!(cohesion_loss.k_per_mm2, CohesionLoss, None, "cohesion_loss: fading rate of the confinement [1/mm2] (fading length 1/sqrt(k))", range(0.0, 100.0), fit(0.0, 1.0, Sin, false)),
+    effect_param!(formation_lag.share, FormationLag, None, "formation_lag: share of the footprint formed through the slow mode", range(0.0, 1.0), fit(0.0, 1.0, Sin, false)),
+    effect_param!(formation_lag.tau_s, FormationLag, Some("s"), "formation_lag: time scale of the slow formation mode", range(1e-3, 1e5), fit(0.5, 300.0, Log, false)),
+    effect_param!(formation_lag.zeta, FormationLag, None, "formation_lag: damping ratio of the slow mode (< 1: oscillating)", range(0.01, 100.0), fit(0.05, 5.0, Log, false)),
+    effect_param!(particle_drift.rate_per_h, ParticleDrift, None, "particle_drift: relative growth rate of the radii over session time [1/h] (negative: shrinking)", range(-10.0, 10.0), fit(-2.0, 2.0, Sin, false)),
+    effect_param!(centroid_offset.offset_mm, CentroidOffset, Some("mm"), "centroid_offset: extra radial distance of the swarm centroid from the rotation axis", range(-50.0, 50.0), fit(-6.0, 15.0, Sin, false)),
+    effect_param!(camera_bias.scale, CameraBias, None, "camera_bias: scale error of the measured radii", range(0.2, 5.0), fit(0.7, 1.4, Log, false)),
+    effect_param!(camera_bias.offset_mm, CameraBias, Some("mm"), "camera_bias: offset of the measured radii", range(-20.0, 20.0), fit(-3.0, 3.0, Sin, false)),
+    effect_param!(camera_bias.tilt_deg, CameraBias, None, "camera_bias: tilt of the image plane about the r1 axis [deg] (foreshortens r2 by cos)", range(-80.0, 80.0), fit(0.0, 60.0, Sin, false)),
 ];
 
 /// The row of a parameter, by name.

@@ -44,6 +44,16 @@ pub(crate) fn norm_freq(model: &Model, omega: f64) -> (f64, f64) {
     (omega.abs() / omega_ref, omega.signum() / omega_ref)
 }
 
+/// The swarm's normalised rotation rate `(w_eff, dw_eff/domega, dw_eff/dz_m)`: w itself
+/// unless the `phase_lag` effect makes the swarm step out.
+#[inline]
+pub(crate) fn swarm_rate(model: &Model, w: f64, dw: f64, field: &FieldAtSwarm) -> (f64, f64, f64) {
+    match &model.effects.phase_lag {
+        None => (w, dw, 0.0),
+        Some(pl) => pl.effective(model, w, dw, field),
+    }
+}
+
 /// x^e and d(x^e)/dx for x >= 0, finite at x = 0 (the derivative is then taken as 0 for
 /// e < 1: the map is only used away from omega = 0, and a finite slope keeps Newton sane).
 fn pow_d(x: f64, e: f64) -> (f64, f64) {
@@ -60,7 +70,11 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     let p = &model.steady;
     let c = &model.conventions;
     let mut validity = model.envelope.classify(z_m, omega);
-    let field = model.magnet.at(z_m);
+    let fx = &model.effects;
+    let field = match &fx.centroid_offset {
+        None => model.magnet.at(z_m),
+        Some(c) => c.magnet(&model.magnet).at(z_m),
+    };
     let (w, dw) = norm_freq(model, omega);
 
     // Curvature terms a_K |k / unit|^gamma.
@@ -115,15 +129,28 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     } else {
         raw_y
     };
+    let (s_x, s_y) = match &fx.cohesion_loss {
+        None => (s_x, s_y),
+        Some(cl) => {
+            // Confinement fading past z_c: S_i c(z).
+            let (f, df) = cl.factor(z_m);
+            let s = [s_x, s_y];
+            for i in 0..2 {
+                ds[i] = [f * ds[i][0] + s[i] * df, f * ds[i][1]];
+            }
+            (s_x * f, s_y * f)
+        }
+    };
 
-    // Phi (6).
-    let (w_q, w_qd) = pow_d(w, p.q);
+    // Phi (6), at the swarm's rotation rate (|omega| unless it steps out).
+    let (wf, dwf, dwf_dz) = swarm_rate(model, w, dw, &field);
+    let (w_q, w_qd) = pow_d(wf, p.q);
     let phi = (p.N * (w_q - 1.0)).exp();
-    let dlnphi_dw = p.N * w_qd * dw;
+    let dlnphi_dw = p.N * w_qd * dwf;
 
     let r1 = p.C_1 * phi / s_x.powf(p.alpha_1);
     let r2 = p.C_2 * phi / s_y.powf(p.alpha_2);
-    let jac = [
+    let mut jac = [
         [
             -p.alpha_1 * r1 / s_x * ds[0][0],
             r1 * (dlnphi_dw - p.alpha_1 / s_x * ds[0][1]),
@@ -133,6 +160,11 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
             r2 * (dlnphi_dw - p.alpha_2 / s_y * ds[1][1]),
         ],
     ];
+    if dwf_dz != 0.0 {
+        let dlnphi_dz = p.N * w_qd * dwf_dz;
+        jac[0][0] += r1 * dlnphi_dz;
+        jac[1][0] += r2 * dlnphi_dz;
+    }
     SteadyPoint {
         field,
         s_x,
@@ -146,7 +178,7 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     }
 }
 
-/// Phi (6) alone, for the collapse plot (Fig. 5).
+/// Phi (6) alone at |omega| (without effects), for the collapse plot (Fig. 5).
 pub fn phi(model: &Model, omega: f64) -> f64 {
     let (w, _) = norm_freq(model, omega);
     (model.steady.N * (w.powf(model.steady.q) - 1.0)).exp()

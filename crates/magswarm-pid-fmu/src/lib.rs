@@ -431,7 +431,7 @@ static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
     }),
     units: UNITS,
     log_categories: LOG_CATEGORIES,
-    variables: Box::leak(build_variables().into_boxed_slice()),
+    variables: magswarm_fmi2::unload::leak(build_variables()),
 });
 
 /// The static model information (variable table, units).

@@ -1,0 +1,143 @@
+"""An FMU with unmodelled effects switched on reproduces `magswarm predict` on the same inputs.
+
+Two ways of getting the effects into the FMU are checked: a model JSON baked into
+resources/ (`magswarm fmu --model M.json --out X.fmu`) and the default FMU with its String
+parameter `model_file` pointing at the JSON. The model switches on every effect with
+non-neutral values (formation lag and particle drift make the outputs depend on the FMU's
+time and on the slow formation mode, camera bias on the output map), and the schedule has
+steps in both inputs across the step-out frequency and the cohesion onset.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import pathlib
+import subprocess
+import zipfile
+
+import numpy as np
+import pytest
+
+from conftest import REPO, hz, mm
+
+EFFECTS = {
+    "phase_lag": {"f_so_hz": 6.0, "nu": 1.0},
+    "cohesion_loss": {"z_c_mm": 15.0, "k_per_mm2": 0.01},
+    "formation_lag": {"share": 0.4, "tau_s": 6.0, "zeta": 0.5},
+    "particle_drift": {"rate_per_h": -0.5},
+    "centroid_offset": {"offset_mm": 1.0},
+    "camera_bias": {"scale": 1.03, "offset_mm": 0.1, "tilt_deg": 12.0},
+}
+
+# (duration_s, z_mm, f_hz): rows every 0.5 s.
+SEGMENTS = [(6.0, 8.5, 4.0), (8.0, 20.5, 4.0), (8.0, 20.5, 8.5), (6.0, 6.0, 9.5), (6.0, 13.5, 2.0)]
+DT = 0.5
+
+
+def magswarm_exe() -> pathlib.Path:
+    exe = REPO / "target" / "release" / "magswarm"
+    if not exe.is_file():
+        msg = f"{exe} not built (cargo build --release)"
+        if os.environ.get("CI"):
+            pytest.fail(msg, pytrace=False)
+        pytest.skip(msg)
+    return exe
+
+
+@pytest.fixture(scope="module")
+def effects_model(fmu_path, tmp_path_factory) -> pathlib.Path:
+    """The FMU's baked paper model with every effect switched on, as a model file."""
+    with zipfile.ZipFile(fmu_path) as z:
+        model = json.loads(z.read("resources/model.json"))
+    model["schema"] = "magswarm-model/2"
+    model["effects"] = EFFECTS
+    path = tmp_path_factory.mktemp("effects") / "effects_model.json"
+    path.write_text(json.dumps(model, indent=1))
+    return path
+
+
+@pytest.fixture(scope="module")
+def schedule_log(tmp_path_factory) -> tuple[pathlib.Path, list[tuple[float, float, float]]]:
+    rows = []
+    t = 0.0
+    for dur, z, f in SEGMENTS:
+        for _ in range(int(round(dur / DT))):
+            rows.append((round(t, 6), z, f))
+            t += DT
+    path = tmp_path_factory.mktemp("effects") / "inputs.csv"
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t_s", "z_m_mm", "f_hz"])
+        w.writerows(rows)
+    return path, rows
+
+
+@pytest.fixture(scope="module")
+def predicted(effects_model, schedule_log, tmp_path_factory):
+    log, rows = schedule_log
+    out = tmp_path_factory.mktemp("effects") / "pred.csv"
+    subprocess.run([str(magswarm_exe()), "predict", "--model", str(effects_model), "--log", str(log),
+                    "--out", str(out)], check=True, capture_output=True)
+    with out.open() as fh:
+        data = list(csv.DictReader(fh))
+    assert len(data) == len(rows)
+    return np.array([[float(d[k]) for k in ("r1_mm", "r2_mm", "r1_ss_mm", "r2_ss_mm")] for d in data])
+
+
+def run_fmu(md, unzipdir, vr, rows, model_file=None, fmu_log=None):
+    """Replay the rows as predict does: inputs of row k held from row k-1 to row k. Radii in mm."""
+    from fmpy.fmi2 import FMU2Slave
+
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName="parity")
+    fmu.instantiate(callbacks=fmu_log.callbacks if fmu_log else None)
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    if model_file is not None:
+        fmu.setString([vr["model_file"]], [str(model_file)])
+    names = [vr[n] for n in ("r1", "r2", "r1_ss", "r2_ss")]
+    inputs = [vr["z_m"], vr["omega_m"]]
+    _, z0, f0 = rows[0]
+    fmu.setReal(inputs, [mm(z0), hz(f0)])
+    fmu.exitInitializationMode()
+    out = [fmu.getReal(names)]
+    for k in range(1, len(rows)):
+        t, z, f = rows[k]
+        fmu.setReal(inputs, [mm(z), hz(f)])
+        fmu.doStep(currentCommunicationPoint=rows[k - 1][0], communicationStepSize=t - rows[k - 1][0])
+        out.append(fmu.getReal(names))
+    fmu.terminate()
+    fmu.freeInstance()
+    return np.array(out) * 1e3
+
+
+def test_baked_fmu_with_effects_reproduces_predict(effects_model, schedule_log, predicted,
+                                                   tmp_path_factory, fmu_log):
+    from fmpy import extract, read_model_description
+
+    _, rows = schedule_log
+    fmu = tmp_path_factory.mktemp("effects") / "MagSwarmEffects.fmu"
+    subprocess.run([str(magswarm_exe()), "fmu", "--no-build", "--model", str(effects_model), "--out",
+                    str(fmu)], check=True, capture_output=True)
+    with zipfile.ZipFile(fmu) as z:
+        baked = json.loads(z.read("resources/model.json"))
+    assert baked["effects"] == EFFECTS
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzipdir = extract(str(fmu), unzipdir=str(tmp_path_factory.mktemp("baked")))
+    got = run_fmu(md, unzipdir, vr, rows, fmu_log=fmu_log)
+    err = np.abs(got - predicted).max(axis=0)
+    assert err.max() < 1e-4, f"baked FMU vs predict, max |diff| per output [mm]: {err}"
+
+
+def test_model_file_parameter_with_effects_reproduces_predict(effects_model, schedule_log, predicted,
+                                                              model_description, unzipdir, vr, fmu_log):
+    _, rows = schedule_log
+    got = run_fmu(model_description, unzipdir, vr, rows, model_file=effects_model, fmu_log=fmu_log)
+    err = np.abs(got - predicted).max(axis=0)
+    assert err.max() < 1e-4, f"model_file FMU vs predict, max |diff| per output [mm]: {err}"
+    # The effects are really in force: the default FMU without model_file differs by far more.
+    base = run_fmu(model_description, unzipdir, vr, rows, fmu_log=fmu_log)
+    assert np.abs(base - predicted).max() > 0.5
