@@ -207,7 +207,7 @@ fn input_change_ns(calls: usize) -> f64 {
 /// formed, and with `set_inputs` to a new value before every step.
 fn plant_ns(calls: usize, h: f64) -> (f64, f64) {
     let mut p = Plant::new(Model::paper(), 8.5e-3, 4.0 * TAU);
-    let mut time = |p: &mut Plant, change: bool| {
+    let time = |p: &mut Plant, change: bool| {
         let mut t = 0.0;
         median(
             (0..REPEATS)
