@@ -30,6 +30,7 @@
 
 pub mod protocol;
 pub mod truth;
+pub mod plant;
 
 use anyhow::{bail, Context, Result};
 use magswarm_model::{hz_to_rad_s, Model};
