@@ -28,9 +28,9 @@
 //! inputs are those in force since the previous row (the convention `predict` replays), so a
 //! noise-free lab run of a model without foreign effects is exactly `predict` of its inputs.
 
+pub mod plant;
 pub mod protocol;
 pub mod truth;
-pub mod plant;
 
 use anyhow::{bail, Context, Result};
 use magswarm_model::{hz_to_rad_s, Model};

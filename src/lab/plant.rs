@@ -27,7 +27,13 @@ pub struct LabPlant {
 
 impl LabPlant {
     /// A swarm formed at rest at `u` at time 0, measured with `noise`, draws from `seed`.
-    pub fn new(model: Model, foreign: Vec<Foreign>, noise: Noise, u: Inputs, seed: u64) -> LabPlant {
+    pub fn new(
+        model: Model,
+        foreign: Vec<Foreign>,
+        noise: Noise,
+        u: Inputs,
+        seed: u64,
+    ) -> LabPlant {
         let mut p = LabPlant {
             swarm: LabSwarm::new(model, foreign, u.z_m, u.omega_m),
             noise,
@@ -143,7 +149,10 @@ mod tests {
         let run = |seed| {
             let mut lab = LabPlant::new(m.clone(), vec![], Noise::default(), u0, seed);
             (0..50)
-                .map(|k| lab.step(Inputs::from_mm_hz(8.5 + (k / 10) as f64, 4.0), 1.0).unwrap())
+                .map(|k| {
+                    lab.step(Inputs::from_mm_hz(8.5 + (k / 10) as f64, 4.0), 1.0)
+                        .unwrap()
+                })
                 .collect::<Vec<_>>()
         };
         assert_eq!(run(3), run(3));

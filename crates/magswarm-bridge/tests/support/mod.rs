@@ -137,7 +137,10 @@ pub fn assert_stop_within(rig: &Rig, cue: Instant, limit: Duration) {
         .first_stop_after(cue)
         .unwrap_or_else(|| panic!("the stepper saw no MST after the fault"));
     let d = stop.duration_since(cue);
-    eprintln!("stepper MST {:.1} ms after the fault", d.as_secs_f64() * 1e3);
+    eprintln!(
+        "stepper MST {:.1} ms after the fault",
+        d.as_secs_f64() * 1e3
+    );
     assert!(
         d <= limit,
         "the stepper saw the stop {:.1} ms after the fault (limit {:.0} ms)",
