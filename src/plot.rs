@@ -519,20 +519,7 @@ pub fn viridis(t: f64) -> RGBColor {
         (170.0, 220.0, 50.0),
         (253.0, 231.0, 37.0),
     ];
-    let t = if t.is_finite() {
-        t.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let s = t * (V.len() - 1) as f64;
-    let i = (s.floor() as usize).min(V.len() - 2);
-    let u = s - i as f64;
-    let l = |a: f64, b: f64| (a + (b - a) * u).round() as u8;
-    RGBColor(
-        l(V[i].0, V[i + 1].0),
-        l(V[i].1, V[i + 1].1),
-        l(V[i].2, V[i + 1].2),
-    )
+    interpolate(&V, t, 0.0)
 }
 
 /// Cell edges from cell centres: half-way between neighbours, mirrored at the ends.
@@ -588,19 +575,25 @@ pub fn diverging(t: f64) -> RGBColor {
         (239.0, 138.0, 98.0),
         (178.0, 24.0, 43.0),
     ];
+    interpolate(&V, t, 0.5)
+}
+
+/// Linear interpolation between equally spaced colour stops, `t` in [0, 1] (clamped); a
+/// non-finite `t` takes the colour at `nan_t` (the low end for viridis, white for diverging).
+fn interpolate(stops: &[(f64, f64, f64)], t: f64, nan_t: f64) -> RGBColor {
     let t = if t.is_finite() {
         t.clamp(0.0, 1.0)
     } else {
-        0.5
+        nan_t
     };
-    let s = t * (V.len() - 1) as f64;
-    let i = (s.floor() as usize).min(V.len() - 2);
+    let s = t * (stops.len() - 1) as f64;
+    let i = (s.floor() as usize).min(stops.len() - 2);
     let u = s - i as f64;
     let l = |a: f64, b: f64| (a + (b - a) * u).round() as u8;
     RGBColor(
-        l(V[i].0, V[i + 1].0),
-        l(V[i].1, V[i + 1].1),
-        l(V[i].2, V[i + 1].2),
+        l(stops[i].0, stops[i + 1].0),
+        l(stops[i].1, stops[i + 1].1),
+        l(stops[i].2, stops[i + 1].2),
     )
 }
 
