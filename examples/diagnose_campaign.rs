@@ -1,17 +1,18 @@
 //! A lab-made campaign with a withheld effect, end to end: generate a training log and a
-//! withheld log from a rig whose truth carries an unmodelled effect (in a foreign form, see
-//! `magswarm::diagnose::synth`), write both logs and the truth, run `diagnose` on the training
-//! log with the other as `--withheld`, and write the report.
+//! withheld log from a rig whose truth carries an unmodelled effect (in the virtual lab's
+//! foreign form, see `magswarm::lab::presets`), write both logs and the truth, run `diagnose`
+//! on the training log with the other as `--withheld`, and write the report.
 //!
 //! ```sh
 //! cargo run --release --example diagnose_campaign -- --effect cohesion_loss --out target/diagnose-demo
 //! ```
 //!
 //! `--effect` takes a comma-separated list of NAME or NAME=STRENGTH (1: the size documented in
-//! `synth`), or `none`; `--seed` changes the noise.
+//! `magswarm::lab::presets`), or `none`; `--seed` changes the noise.
 
 use anyhow::{bail, Result};
-use magswarm::diagnose::{self, synth::Campaign};
+use magswarm::diagnose;
+use magswarm::lab::{presets::Campaign, Protocol};
 
 fn main() -> Result<()> {
     let mut effect = "cohesion_loss".to_string();
@@ -46,22 +47,28 @@ fn main() -> Result<()> {
         }
     }
     std::fs::create_dir_all(&out)?;
-    let train = Campaign::seed_grid(&effects, seed);
-    let mut held = Campaign::seed_grid(&effects, seed + 1000);
+    let train = Campaign::seed_grid(&effects, seed)?;
+    let mut held = train.with_seed(seed + 1000);
     // The withheld campaign visits the points between the training grid's.
-    held.points = held
-        .points
-        .iter()
-        .map(|&(z, f)| (z + 2.5, f + 0.5))
-        .filter(|&(z, f)| z <= 23.5 && f <= 10.0)
-        .collect();
+    if let Protocol::Grid {
+        z_mm, f_hz, visits, ..
+    } = &mut held.scenario.protocol
+    {
+        *z_mm = vec![6.0, 11.0, 16.0, 21.0];
+        *f_hz = vec![1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5, 8.5, 9.5];
+        *visits = 1;
+    }
     let tp = out.join("campaign.csv");
     let wp = out.join("withheld.csv");
-    std::fs::write(&tp, train.csv())?;
-    std::fs::write(&wp, held.csv())?;
+    std::fs::write(&tp, train.csv()?)?;
+    std::fs::write(&wp, held.csv()?)?;
     train.truth.save(&out.join("truth-without-effect.json"))?;
+    std::fs::write(
+        out.join("scenario.json"),
+        serde_json::to_string_pretty(&train.scenario)? + "\n",
+    )?;
     eprintln!(
-        "diagnose_campaign: truth effect(s) {effect} (forms in src/diagnose/synth.rs); logs {} and {}",
+        "diagnose_campaign: truth effect(s) {effect} (foreign forms: scenario.json, docs/lab.md); logs {} and {}",
         tp.display(),
         wp.display()
     );

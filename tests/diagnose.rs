@@ -1,24 +1,28 @@
 //! `magswarm diagnose`: injection-recovery for every effect, mixtures of two, null logs, the
 //! command's outputs and its errors.
 //!
-//! **The truths are not the candidate forms.** Every log here comes from
-//! `magswarm::diagnose::synth`, whose effects are written in forms that differ from the forms
-//! diagnose fits (`magswarm::diagnose::candidates`): phase lag as a saturating-exponential
-//! ramp above 5.5 Hz with no field dependence (fitted: a logistic step at a field-scaled
-//! step-out frequency); cohesion loss as a quadratic onset past 14 mm (fitted: a logistic
-//! fade); formation lag as a 6 s dead time before the swarm sees an input change (fitted: a
-//! first-order lag); particle drift as an exponential particle loss (fitted: linear in session
-//! time); centroid offset as a rational decay (6 mm / (z_m + 6 mm))^2 (fitted: an exponential
-//! decay in z_m); camera bias as a blurred, rescaled edge sqrt((s r)^2 + b^2) (fitted: a
-//! constant offset). The plant itself is the paper model with its gains and exponents moved
-//! (the baseline must be identified), the visits come in a random order with approach rows,
-//! per-row and per-visit noise and occasional invalid frames.
+//! **The truths are not the candidate forms.** Every log here comes from the virtual lab
+//! (`magswarm::lab::presets`, the one generator of the project), whose truths are written in
+//! the lab's *foreign* forms, which differ from the model terms diagnose fits
+//! (`magswarm_model::effects`, via `magswarm::diagnose::candidates`): phase lag as a logistic
+//! roll-off of the swarm's rotation with no field dependence, fed into every term of (6)-(7)
+//! (fitted: an Adler step-out at a field-scaled frequency, in Phi and E only); cohesion loss
+//! as a per-axis quadratic growth of the radii past 14 mm that lags input changes (fitted: a
+//! Gaussian fading of the stiffness); formation lag as a dead time plus first-order filter on
+//! the inputs the swarm sees (fitted: a parallel second-order mode on the radii); particle
+//! drift as 1 - c sqrt(t) (fitted: exp(rate t)); centroid offset from a tilted rotation axis,
+//! growing with depth (fitted: a constant offset); camera bias as a true projection of the
+//! rotating ellipse on a tilted image plane plus scale and offset (fitted: a constant offset).
+//! The plant itself is the paper model with its gains and exponents moved (the baseline must
+//! be identified); visits come in a random order, with rows from 2 s after each change,
+//! heteroscedastic per-row and per-visit noise and invalid frames.
 //!
 //! Each recovery prints one line of the recovery table (run with `--nocapture` to see it):
 //! raw withheld RMSE (grouped CV by visit) of the baseline and the augmented model per axis,
 //! the pure-error floor and the share of the withheld excess removed.
 
-use magswarm::diagnose::{self, synth::Campaign, Config, Diagnosis};
+use magswarm::diagnose::{self, Config, Diagnosis};
+use magswarm::lab::presets::Campaign;
 use magswarm::log::Log;
 use magswarm::model::Model;
 
@@ -30,8 +34,9 @@ fn cfg() -> Config {
 }
 
 fn run(effects: &[(&str, f64)], seed: u64) -> Diagnosis {
-    let c = Campaign::seed_grid(effects, seed);
-    diagnose::diagnose(&c.log("train.csv"), None, &Model::paper(), &cfg()).expect("diagnose runs")
+    let c = Campaign::seed_grid(effects, seed).expect("campaign");
+    let log = c.log("train.csv").expect("lab log");
+    diagnose::diagnose(&log, None, &Model::paper(), &cfg()).expect("diagnose runs")
 }
 
 fn line(name: &str, d: &Diagnosis) -> String {
@@ -137,28 +142,46 @@ fn recovers_particle_drift() {
 
 #[test]
 fn recovers_centroid_offset() {
-    check_recovery("centroid_offset", 4.0, (3.5, 13.5), (0.0, 100.0), None);
+    check_recovery("centroid_offset", 1.0, (3.5, 13.5), (0.0, 100.0), None);
 }
 
-/// A camera that rescales and blurs the edge (sqrt((s r)^2 + b^2)) is a smooth monotone map
-/// of each radius: the baseline's free gains and exponents (C_i, a_Ki, alpha_i) absorb it, so
-/// the log shows no gap and nothing may be named. This is the honest limit for this kind of
-/// camera bias: it needs a camera calibration (a target of known size), not a diagnosis of the
-/// radii. The test checks that diagnose says so (no gap, no name) and that the baseline indeed
-/// predicts withheld visits at the noise floor.
+/// What a camera does to the radii (a scale error, a tilted image plane that foreshortens the
+/// rotating ellipse at a phase-dependent amount, a constant offset from thresholding or blur)
+/// is, on a steady grid, a smooth monotone map of each radius: the baseline's free gains and
+/// exponents (C_i, a_Ki, alpha_i, N) absorb it, so the log shows no gap and nothing may be
+/// named, `camera_bias` least of all. This is the honest limit for camera bias: it needs a
+/// calibration (a target of known size in the image), not a diagnosis of the radii; the
+/// baseline then predicts withheld visits at the noise floor.
 #[test]
-fn camera_scale_and_blur_are_absorbed_by_the_baseline_and_not_misnamed() {
-    let d = run(&[("camera_bias", 4.0)], 11);
-    eprintln!("{}", line("camera_bias x4", &d));
-    assert!(d.attr.accepted.is_empty(), "named {:?}", d.attr.accepted);
-    let t = d.rmse_table();
-    for a in 0..2 {
+fn camera_bias_is_absorbed_by_the_baseline_and_not_misnamed() {
+    for (label, offset) in [
+        ("camera scale+tilt", 0.0),
+        ("camera scale+tilt+offset", 0.7),
+    ] {
+        let mut c = Campaign::seed_grid(&[], 11).unwrap();
+        c.scenario.foreign = vec![magswarm::lab::Foreign::CameraProjection {
+            tilt_deg: 20.0,
+            axis_deg: 30.0,
+            scale: 1.08,
+            offset_mm: offset,
+        }];
+        let log = c.log("camera.csv").unwrap();
+        let d = diagnose::diagnose(&log, None, &Model::paper(), &cfg()).unwrap();
+        eprintln!("{}", line(label, &d));
         assert!(
-            t[0].1.rmse[a] < 1.1 * d.floor[a],
-            "axis {a}: {} vs floor {}",
-            t[0].1.rmse[a],
-            d.floor[a]
+            d.attr.accepted.is_empty(),
+            "{label}: named {:?}",
+            d.attr.accepted
         );
+        let t = d.rmse_table();
+        for a in 0..2 {
+            assert!(
+                t[0].1.rmse[a] < 1.15 * d.floor[a],
+                "{label}: axis {a}: {} vs floor {}",
+                t[0].1.rmse[a],
+                d.floor[a]
+            );
+        }
     }
 }
 
@@ -208,11 +231,10 @@ fn null_logs_rarely_show_a_gap() {
 #[test]
 fn command_writes_the_contract_files() {
     let dir = tempfile::tempdir().unwrap();
-    let c = Campaign::seed_grid(&[("phase_lag", 1.0)], 5);
-    let mut w = Campaign::seed_grid(&[("phase_lag", 1.0)], 1005);
-    w.points.truncate(20);
-    std::fs::write(dir.path().join("in.csv"), c.csv()).unwrap();
-    std::fs::write(dir.path().join("w.csv"), w.csv()).unwrap();
+    let c = Campaign::seed_grid(&[("phase_lag", 1.0)], 5).unwrap();
+    let w = c.with_seed(1005);
+    std::fs::write(dir.path().join("in.csv"), c.csv().unwrap()).unwrap();
+    std::fs::write(dir.path().join("w.csv"), w.csv().unwrap()).unwrap();
     let out = dir.path().join("out");
     diagnose::run(&diagnose::DiagnoseArgs {
         log: dir.path().join("in.csv"),
@@ -254,8 +276,58 @@ fn command_writes_the_contract_files() {
         }
     }
     assert!(j["augmented"]["withheld_log_rmse_mm"]["r1"].is_number());
-    Model::load(&out.join("baseline.json")).unwrap();
-    Model::load(&out.join("augmented.json")).unwrap();
+    // augmented.json is a real model: the accepted effects switched on, and `predict` of the
+    // training log through it gives the radii diagnose judged (up to the ODE (4) transient,
+    // which diagnose carries over from the baseline rather than re-integrating).
+    let accepted: Vec<String> = j["accepted"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect();
+    assert!(
+        accepted.iter().any(|a| a == "phase_lag"),
+        "phase lag not named: {accepted:?}"
+    );
+    let log = Log::read(&dir.path().join("in.csv")).unwrap();
+    for (file, key, effects) in [
+        ("baseline.json", "baseline", Vec::new()),
+        ("augmented.json", "augmented", accepted.clone()),
+    ] {
+        let m = Model::load(&out.join(file)).unwrap();
+        let mut on: Vec<String> = m.effects.enabled().iter().map(|s| s.to_string()).collect();
+        let mut want = effects.clone();
+        on.sort();
+        want.sort();
+        assert_eq!(on, want, "{file}: effects switched on");
+        let inputs: Vec<magswarm::predict::InputRow> = log
+            .rows
+            .iter()
+            .map(|r| magswarm::predict::InputRow {
+                t: r.t_s,
+                z_mm: r.z_m_mm,
+                f_hz: r.f_hz,
+            })
+            .collect();
+        let pred = magswarm::predict::replay(&m, &inputs, 1e-6).unwrap();
+        let mut ss = [0.0; 2];
+        let mut n = 0.0;
+        for (r, p) in log.rows.iter().zip(&pred) {
+            if let (true, Some(a), Some(b)) = (r.valid, r.r1_mm, r.r2_mm) {
+                ss[0] += (a - p[0]).powi(2);
+                ss[1] += (b - p[1]).powi(2);
+                n += 1.0;
+            }
+        }
+        for (a, axis) in ["r1", "r2"].iter().enumerate() {
+            let replayed = (ss[a] / n).sqrt();
+            let reported = j[key]["train_rmse_mm"][axis].as_f64().unwrap();
+            assert!(
+                (replayed - reported).abs() < 0.1 * reported,
+                "{file}: {axis} RMSE by predict {replayed:.4} mm vs reported {reported:.4} mm"
+            );
+        }
+    }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     for png in [
         "residual_before_r2.png",

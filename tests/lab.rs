@@ -20,6 +20,7 @@ fn grid(z: &[f64], f: &[f64], visits: usize, repeats: usize) -> Protocol {
         repeats,
         settle_s: 20.0,
         sample_s: 1.0,
+        approach_s: Vec::new(),
     }
 }
 

@@ -123,7 +123,7 @@ impl Env<'_> {
     fn evaluate(&self, start: &Augmented, names: Vec<String>, starts: &[Vec<f64>]) -> Evaluated {
         let all: Vec<usize> = (0..self.ds.rows.len()).collect();
         let full = fitter::fit(start, self.free, self.ds, self.ctx, &all, self.sd, starts);
-        let pred = candidates::predict(&full.aug, self.ds, self.ctx);
+        let pred = candidates::predict(&full.aug, self.ds);
         let mut cv = vec![[0.0; 2]; self.ds.rows.len()];
         for f in 0..self.k {
             let train: Vec<usize> = all
@@ -143,7 +143,7 @@ impl Env<'_> {
                 self.sd,
                 &[],
             );
-            let p = candidates::predict(&fr.aug, self.ds, self.ctx);
+            let p = candidates::predict(&fr.aug, self.ds);
             for i in 0..self.ds.rows.len() {
                 if self.fold_of_visit[self.ds.rows[i].visit] == f {
                     cv[i] = p[i];
@@ -211,7 +211,6 @@ pub fn attribute(
     };
     let base = env.evaluate(baseline, Vec::new(), &[]);
     progress.inc(1);
-    let (zs, fs) = ds.levels();
     let mut current = base.clone();
     let mut accepted: Vec<String> = Vec::new();
     let mut evals: Vec<CandidateEval> = Vec::new();
@@ -265,8 +264,8 @@ pub fn attribute(
                             let mut start = current.full.aug.clone();
                             start
                                 .effects
-                                .push((name.to_string(), candidates::neutral(name, &start.model)));
-                            let starts = candidates::starts(name, &start.model, env.ds);
+                                .push((name.to_string(), candidates::neutral(name, env.ctx)));
+                            let starts = candidates::starts(name, env.ctx, env.ds);
                             let mut names = current.names.clone();
                             names.push(name.to_string());
                             out.push((j, env.evaluate(&start, names, &starts)));
@@ -301,7 +300,7 @@ pub fn attribute(
             } else {
                 1.0
             };
-            let npar = candidates::params(&name).len();
+            let npar = candidates::params(&name, ctx).len();
             let penalty = npar as f64 / 2.0 * (nv as f64).ln();
             let mut implausible: Vec<String> = model
                 .full
@@ -310,30 +309,7 @@ pub fn attribute(
                 .filter(|(e, _)| *e == name)
                 .map(|(_, p)| format!("{p} at its bound"))
                 .collect();
-            let vals = &model
-                .full
-                .aug
-                .effects
-                .iter()
-                .find(|e| e.0 == name)
-                .map(|e| e.1.clone())
-                .unwrap_or_default();
-            for (d, v) in candidates::params(&name).iter().zip(vals) {
-                let range = match d.location {
-                    // A fade may start past the data (they then see its exponential onset), not before them.
-                    Some(candidates::Axis::Z) => Some((zs[0], f64::INFINITY)),
-                    Some(candidates::Axis::F) => Some((fs[0], fs[fs.len() - 1])),
-                    None => None,
-                };
-                if let Some((lo, hi)) = range {
-                    if *v < lo || *v > hi {
-                        implausible.push(format!(
-                            "{} = {:.3} {} outside the data's range [{lo}, {hi}]",
-                            d.name, v, d.unit
-                        ));
-                    }
-                }
-            }
+            implausible.extend(candidates::implausible(&name, &model.full.aug, ctx));
             let res_new = residuals(ds, &model.pred);
             let mut signature = (0.0f64, None);
             for (ri, r) in regions.iter().enumerate() {

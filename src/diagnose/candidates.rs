@@ -1,40 +1,39 @@
-//! The candidate effects diagnose tries, each a compact parametric extension of the plant that
-//! nests the baseline at its neutral parameters.
+//! The candidate effects diagnose tries: the model's own effect terms
+//! ([`magswarm_model::effects`], docs/effects.md), not report-only curve fits. A candidate
+//! that diagnose accepts is switched on in `augmented.json` with its fitted parameters, so the
+//! FMU, `predict` and the bridge's shadow model run exactly the model diagnose judged.
 //!
-//! A candidate is: its name (the fixed CONTRACTS names), the parameters it frees (name, unit,
-//! bounds, neutral value, starting values) and how it acts on the prediction. They act in a
-//! fixed order: on the swarm's steady map (phase lag, cohesion loss, centroid offset), then on
-//! the swarm over time (formation lag, particle drift), then on the measurement (camera bias).
+//! A candidate frees some of its effect's registry rows (the rest stay neutral) and predicts
+//! through the model's code: the steady map [`steady::evaluate`] carries `phase_lag`,
+//! `cohesion_loss` and `centroid_offset`; the slow mode of `formation_lag` is propagated by
+//! [`FormationLag::propagate`] between rows exactly as [`magswarm_model::Plant`] does; drift
+//! and camera act through [`Effects::observe`]. Only the baseline's ODE (4) transient is held
+//! fixed while candidates are refitted (see [`super::data`]); `augmented.json` replayed by
+//! `predict` gives the same radii up to that transient's change (tested).
 //!
-//! | name | parameters | form |
-//! | --- | --- | --- |
-//! | `phase_lag` | a_1, a_2 [-], f_so [Hz], nu [-] | r_i x (1 + a_i sigma((f - f_so (B/B_mid)^nu) / (0.1 f_so))): a change of the swarm past a step-out frequency that scales with the field |
-//! | `cohesion_loss` | b_1, b_2 >= 0 [-], z_c [mm], w_z [mm] | r_i x (1 + b_i sigma((z_m - z_c) / w_z) / sigma((z_max - z_c) / w_z)): confinement fading past a distance z_c (b_i: the change at the data's largest z_m, z_max; z_c may lie past z_max, the onset of a fade toward z_off) |
-//! | `centroid_offset` | c_1, c_2 [-], lambda [mm] | r_i x (1 + c_i exp(-(z_m - z_min) / lambda)): a swarm off the field axis feels it most where the magnet is close (the displacement is comparable to the depth), fading over a length lambda; c_i is the change at the data's smallest z_m |
-//! | `formation_lag` | tau_f [s] | the measured swarm follows the model's trajectory through a first-order lag |
-//! | `particle_drift` | k_1, k_2 [1/h] | r_i x (1 + k_i t), t session time |
-//! | `camera_bias` | o_1, o_2 [mm] | r_i + o_i (a pure scale of the camera is absorbed by C_1, C_2) |
+//! | candidate | freed parameters (fit space) | model parameters | fixed at neutral, and why |
+//! | --- | --- | --- | --- |
+//! | `phase_lag` | f_mid [Hz] (step-out frequency at the data's mid-range field), nu [-] | `f_so_hz = f_mid (B_ref / B_mid)^nu`, `nu` | - |
+//! | `cohesion_loss` | z_c [mm], k [1/mm^2] | `z_c_mm`, `k_per_mm2` | - |
+//! | `formation_lag` | share [-], tau_s [s], zeta [-] | the same | - |
+//! | `particle_drift` | rate [1/h] | `rate_per_h` | - |
+//! | `centroid_offset` | offset [mm] | `offset_mm` | - |
+//! | `camera_bias` | offset [mm] | `offset_mm` | `scale`, `tilt_deg`: a scale of the radii (and the cos(tilt) of r2) is the baseline's C_1, C_2, which are refitted with every candidate: not identifiable from radii |
 //!
-//! sigma is the logistic function. The forms are deliberately generic within their physics
-//! (free sign and per-axis amplitude) so that a rig's own form of the same effect is still
-//! recognised; the acceptance rules (withheld gain, plausibility, residual signature) keep a
-//! generic form from being accepted for a residual of another kind.
+//! Fitting `phase_lag` at the data's mid-range field rather than at B_ref keeps the step-out
+//! location and its field exponent nearly uncorrelated (the fit is better conditioned), and
+//! lets the plausibility rule ask the question that matters: does the step-out lie inside the
+//! frequencies measured?
 
 use super::data::Dataset;
-use crate::identify::fit::predict_point;
-use magswarm_model::{steady, Model};
+use magswarm_model::effects::{self, Effects, FormationLag};
+use magswarm_model::registry::{self, Transform};
+use magswarm_model::{hz_to_rad_s, steady, Model};
 
-/// The candidates, in report order.
-pub const NAMES: [&str; 6] = [
-    "phase_lag",
-    "cohesion_loss",
-    "formation_lag",
-    "particle_drift",
-    "centroid_offset",
-    "camera_bias",
-];
+/// The candidates, in report order (the CONTRACTS names).
+pub const NAMES: [&str; 6] = effects::NAMES;
 
-/// One parameter of a candidate.
+/// One freed parameter of a candidate (fit space).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EffParam {
     /// Name.
@@ -51,9 +50,12 @@ pub struct EffParam {
     /// to be a plausible description of the residual rather than of a trend.
     pub location: Option<Axis>,
     /// Which bounds mean "the data want more than the form allows" when reached: (lower,
-    /// upper). A physical sign limit (an amplitude at 0: no effect on that axis) or a width
-    /// at its lower bound (sharper than the grid resolves) is not such a bound.
+    /// upper). A bound where the effect vanishes (a share or rate at 0, an onset past the
+    /// data) or a sharpness past what the grid resolves is not such a bound.
     pub flag: (bool, bool),
+    /// Held at each start's value in the first, coarse stage of the multi-start fit (a
+    /// location or a time scale: the parameters that make the cost piecewise smooth).
+    pub scan: bool,
 }
 
 /// Which input a location parameter refers to.
@@ -65,172 +67,268 @@ pub enum Axis {
     F,
 }
 
-const fn p(name: &'static str, unit: &'static str, lo: f64, hi: f64) -> EffParam {
+/// A registry row's fit bounds and transform, as a fit-space parameter.
+fn row(name: &'static str, field: &'static str) -> EffParam {
+    let p = registry::find(name).unwrap_or_else(|| panic!("registry has no row {name}"));
+    let fit = p.fit.unwrap_or_else(|| panic!("{name} is not fittable"));
     EffParam {
-        name,
-        unit,
-        lo,
-        hi,
-        log: false,
+        name: field,
+        unit: p.unit.unwrap_or("-"),
+        lo: fit.lo,
+        hi: fit.hi,
+        log: fit.transform == Transform::Log,
         location: None,
         flag: (true, true),
+        scan: false,
     }
 }
 
-/// Parameters of a candidate.
-pub fn params(name: &str) -> Vec<EffParam> {
+/// Freed parameters of a candidate on data with context `ctx` (location bounds follow the
+/// data's ranges, so a rig with another workspace is judged on its own ranges).
+pub fn params(name: &str, ctx: &Ctx) -> Vec<EffParam> {
+    let span_z = (ctx.z_max - ctx.z_min).max(1.0);
     match name {
         "phase_lag" => vec![
-            p("a_1", "-", -0.6, 1.5),
-            p("a_2", "-", -0.6, 1.5),
             EffParam {
+                name: "f_mid",
+                unit: "Hz",
+                lo: (0.3 * ctx.f_min).max(0.05),
+                hi: 3.0 * ctx.f_max,
+                log: true,
                 location: Some(Axis::F),
-                ..p("f_so", "Hz", 0.3, 40.0)
+                // At the upper bound the step-out lies past the data: no effect.
+                flag: (true, false),
+                scan: true,
             },
-            p("nu", "-", -1.5, 1.5),
+            EffParam {
+                // nu = 0 (a step-out independent of the field) is a physical limit, not a
+                // misfit.
+                flag: (false, true),
+                ..row("phase_lag.nu", "nu")
+            },
         ],
         "cohesion_loss" => vec![
-            // Weakening cohesion enlarges the footprint: b_i >= 0.
             EffParam {
-                flag: (false, true),
-                ..p("b_1", "-", 0.0, 2.0)
-            },
-            EffParam {
-                flag: (false, true),
-                ..p("b_2", "-", 0.0, 2.0)
-            },
-            // Normalised at z_max, the form tends to exp((z - z_max) / w_z) as z_c grows:
-            // an onset past the data is a fade toward a z_off beyond them, not a misfit.
-            EffParam {
+                lo: ctx.z_min - 0.5 * span_z,
+                hi: ctx.z_max,
                 location: Some(Axis::Z),
+                // At the upper bound the fade starts past the data: no effect.
                 flag: (true, false),
-                ..p("z_c", "mm", -10.0, 80.0)
+                scan: true,
+                ..row("cohesion_loss.z_c_mm", "z_c_mm")
             },
             EffParam {
+                // From a fading length of twice the span (barely visible) to 0.3 mm (a step
+                // sharper than any grid resolves, so not a misfit at its bound).
+                lo: 0.25 / (span_z * span_z),
+                hi: 10.0,
                 log: true,
-                flag: (false, true),
-                ..p("w_z", "mm", 0.3, 10.0)
+                flag: (false, false),
+                unit: "1/mm^2",
+                ..row("cohesion_loss.k_per_mm2", "k_per_mm2")
             },
         ],
-        "centroid_offset" => vec![
-            p("c_1", "-", -0.8, 2.0),
-            p("c_2", "-", -0.8, 2.0),
+        "formation_lag" => vec![
             EffParam {
-                log: true,
+                lo: 0.01,
+                flag: (false, false),
+                ..row("formation_lag.share", "share")
+            },
+            EffParam {
+                lo: (0.5 * ctx.dt_min).max(0.05),
+                hi: ctx.t_span.max(10.0),
                 flag: (false, true),
-                ..p("lambda", "mm", 0.5, 30.0)
+                scan: true,
+                ..row("formation_lag.tau_s", "tau_s")
+            },
+            EffParam {
+                lo: 0.1,
+                hi: 5.0,
+                flag: (false, false),
+                ..row("formation_lag.zeta", "zeta")
             },
         ],
-        "formation_lag" => vec![EffParam {
-            log: true,
-            ..p("tau_f", "s", 0.02, 1000.0)
+        "particle_drift" => vec![row("particle_drift.rate_per_h", "rate_per_h")],
+        "centroid_offset" => vec![EffParam {
+            // From the swarm on the axis (lateral distance 0, a physical limit) to 30 mm
+            // further out than the model's geometry.
+            lo: -ctx.lateral_mm,
+            hi: 30.0,
+            flag: (false, true),
+            ..row("centroid_offset.offset_mm", "offset_mm")
         }],
-        "particle_drift" => vec![p("k_1", "1/h", -3.0, 3.0), p("k_2", "1/h", -3.0, 3.0)],
-        "camera_bias" => vec![p("o_1", "mm", -5.0, 5.0), p("o_2", "mm", -5.0, 5.0)],
+        "camera_bias" => vec![row("camera_bias.offset_mm", "offset_mm")],
         _ => Vec::new(),
     }
 }
 
-/// Neutral values (the baseline exactly) of a candidate's parameters, given the baseline.
-pub fn neutral(name: &str, _base: &Model) -> Vec<f64> {
+/// Fit-space values with which the candidate is the baseline exactly.
+pub fn neutral(name: &str, ctx: &Ctx) -> Vec<f64> {
     match name {
-        "phase_lag" => vec![0.0, 0.0, 6.0, 0.0],
-        "cohesion_loss" => vec![0.0, 0.0, 20.0, 2.0],
-        "centroid_offset" => vec![0.0, 0.0, 4.0],
-        "formation_lag" => vec![0.02],
-        "particle_drift" => vec![0.0, 0.0],
-        "camera_bias" => vec![0.0, 0.0],
+        // Step-out above every frequency of the data at every field: w_eff = w.
+        "phase_lag" => vec![3.0 * ctx.f_max, 0.0],
+        // Onset at the data's largest z_m: (z - z_c)_+ = 0 everywhere.
+        "cohesion_loss" => vec![ctx.z_max, 0.1],
+        "formation_lag" => vec![0.0, 10.0, 1.0],
+        "particle_drift" => vec![0.0],
+        "centroid_offset" => vec![0.0],
+        "camera_bias" => vec![0.0],
         _ => Vec::new(),
     }
 }
 
-/// Starting values for the multi-start fit of a candidate (the data's ranges place the
-/// location parameters).
-pub fn starts(name: &str, _base: &Model, ds: &Dataset) -> Vec<Vec<f64>> {
+/// Starting values for the multi-start fit of a candidate: a grid over its parameters, with
+/// the locations between the data's levels and the time scales from the visits' durations.
+/// The fitter ranks them by cost and refines the best few.
+pub fn starts(name: &str, ctx: &Ctx, ds: &Dataset) -> Vec<Vec<f64>> {
     let (zs, fs) = ds.levels();
-    let q = |v: &[f64], x: f64| {
-        let lo = v.first().copied().unwrap_or(0.0);
-        let hi = v.last().copied().unwrap_or(1.0);
-        lo + (hi - lo) * x
-    };
-    let span_z = (q(&zs, 1.0) - q(&zs, 0.0)).max(1.0);
+    let mids = |v: &[f64]| -> Vec<f64> { v.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect() };
+    let span_z = (ctx.z_max - ctx.z_min).max(1.0);
+    let mut v = Vec::new();
     match name {
-        "phase_lag" => [0.35, 0.6, 0.85]
-            .iter()
-            .map(|&x| vec![0.05, 0.05, q(&fs, x), 0.0])
-            .collect(),
-        "cohesion_loss" => [0.45, 0.7, 0.9]
-            .iter()
-            .map(|&x| vec![0.05, 0.05, q(&zs, x), (0.15 * span_z).clamp(0.5, 8.0)])
-            .collect(),
-        "centroid_offset" => [0.1, 0.25]
-            .iter()
-            .map(|&x| vec![0.03, 0.03, (x * span_z).clamp(0.6, 25.0)])
-            .collect(),
+        "phase_lag" => {
+            // A step-out between two measured frequencies (at mid-range field), or just
+            // below the lowest.
+            let mut locs = mids(&fs);
+            locs.insert(0, 0.8 * ctx.f_min);
+            for f in locs {
+                for nu in [0.3, 1.5] {
+                    v.push(vec![f, nu]);
+                }
+            }
+        }
+        "cohesion_loss" => {
+            let mut locs = mids(&zs);
+            locs.insert(0, ctx.z_min);
+            for zc in locs {
+                let len = (ctx.z_max - zc).max(0.5);
+                for k in [0.3, 3.0] {
+                    v.push(vec![zc, k / (len * len)]);
+                }
+            }
+        }
         "formation_lag" => {
             let mut durs: Vec<f64> = ds
                 .visits
                 .iter()
-                .filter_map(|v| {
-                    let a = ds.rows[*v.rows.first()?].since;
-                    let b = ds.rows[*v.rows.last()?].since;
+                .filter_map(|vi| {
+                    let a = ds.rows[*vi.rows.first()?].since;
+                    let b = ds.rows[*vi.rows.last()?].since;
                     Some(b.max(a))
                 })
                 .collect();
             durs.sort_by(|a, b| a.total_cmp(b));
             let med = durs.get(durs.len() / 2).copied().unwrap_or(10.0).max(0.5);
-            vec![
-                vec![(med / 10.0).clamp(0.05, 500.0)],
-                vec![(med / 2.0).clamp(0.05, 500.0)],
-            ]
+            for tau in [med / 20.0, med / 8.0, med / 3.0, med] {
+                for zeta in [1.0, 0.4] {
+                    v.push(vec![0.5, tau.max(0.1), zeta]);
+                }
+            }
         }
-        "particle_drift" => vec![vec![0.0, 0.0], vec![-0.2, -0.2], vec![0.2, 0.2]],
-        "camera_bias" => vec![vec![0.0, 0.0], vec![-0.3, -0.3], vec![0.3, 0.3]],
-        _ => vec![Vec::new()],
+        "particle_drift" => {
+            for r in [-0.4, -0.1, 0.1, 0.4] {
+                v.push(vec![r]);
+            }
+        }
+        "centroid_offset" => {
+            for o in [2.0, 5.0, 9.0, 15.0] {
+                v.push(vec![o]);
+            }
+        }
+        "camera_bias" => {
+            for o in [-0.6, -0.2, 0.2, 0.6] {
+                v.push(vec![o]);
+            }
+        }
+        _ => v.push(Vec::new()),
+    }
+    let _ = span_z;
+    v
+}
+
+/// Write a candidate's fit-space values into the model (switching the effect on; the
+/// parameters it does not free stay neutral).
+pub fn to_model(name: &str, vals: &[f64], b_mid: f64, m: &mut Model) {
+    m.effects.switch_on(name);
+    let set = |m: &mut Model, row: &str, v: f64| {
+        if let Some(p) = registry::find(row) {
+            (p.set)(m, v);
+        }
+    };
+    match (name, vals) {
+        ("phase_lag", [f_mid, nu]) => {
+            let b = (b_mid / m.steady.B_ref).max(1e-300);
+            set(m, "phase_lag.f_so_hz", f_mid * b.powf(-nu));
+            set(m, "phase_lag.nu", *nu);
+        }
+        ("cohesion_loss", [zc, k]) => {
+            set(m, "cohesion_loss.z_c_mm", *zc);
+            set(m, "cohesion_loss.k_per_mm2", *k);
+        }
+        ("formation_lag", [share, tau, zeta]) => {
+            set(m, "formation_lag.share", *share);
+            set(m, "formation_lag.tau_s", *tau);
+            set(m, "formation_lag.zeta", *zeta);
+        }
+        ("particle_drift", [r]) => set(m, "particle_drift.rate_per_h", *r),
+        ("centroid_offset", [o]) => set(m, "centroid_offset.offset_mm", *o),
+        ("camera_bias", [o]) => set(m, "camera_bias.offset_mm", *o),
+        _ => {}
     }
 }
 
-fn logistic(x: f64) -> f64 {
-    if x >= 0.0 {
-        1.0 / (1.0 + (-x).exp())
-    } else {
-        let e = x.exp();
-        e / (1.0 + e)
-    }
+/// The model parameters of an effect switched on in `m` (registry name without the effect
+/// prefix, unit, value): what `augmented.json` holds and the report shows.
+pub fn model_params(name: &str, m: &Model) -> Vec<(&'static str, &'static str, f64)> {
+    effects::params_of(name)
+        .map(|p| {
+            let field = p.name.split_once('.').map(|x| x.1).unwrap_or(p.name);
+            (field, p.unit.unwrap_or("-"), (p.get)(m))
+        })
+        .collect()
 }
 
-/// An augmented model: the baseline's (refitted) parameters and the active effects.
+/// An augmented model: the baseline's (refitted) parameters and the active candidates'
+/// fit-space values; [`Augmented::sync_model`] writes them into `model.effects`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Augmented {
-    /// The plant model (the centroid offset lives in it).
+    /// The plant model, effects included once synced.
     pub model: Model,
-    /// Active effects (name, parameter values).
+    /// Active candidates (name, fit-space values), in order of addition.
     pub effects: Vec<(String, Vec<f64>)>,
+    /// |B| at the middle of the data's z_m range [T] (the reference of `phase_lag`'s f_mid).
+    pub b_mid: f64,
 }
 
 impl Augmented {
-    /// The baseline alone.
-    pub fn baseline(model: &Model) -> Augmented {
+    /// The baseline alone (any effect of `model` switched off).
+    pub fn baseline(model: &Model, ctx: &Ctx) -> Augmented {
+        let mut model = model.clone();
+        model.effects = Effects::default();
         Augmented {
-            model: model.clone(),
+            model,
             effects: Vec::new(),
+            b_mid: ctx.b_mid,
         }
     }
 
-    fn eff(&self, name: &str) -> Option<&[f64]> {
-        self.effects
-            .iter()
-            .find(|e| e.0 == name)
-            .map(|e| e.1.as_slice())
+    /// Write the candidates' values into the model's effects section (and nothing else on).
+    pub fn sync_model(&mut self) {
+        self.model.effects = Effects::default();
+        for (n, v) in &self.effects {
+            to_model(n, v, self.b_mid, &mut self.model);
+        }
     }
 
-    /// Write a candidate's parameters into the model where the model holds them (none of the
-    /// present forms lives in the model file of schema 1).
-    pub fn sync_model(&mut self) {}
+    /// The model with every active candidate switched on.
+    pub fn synced(&self) -> Model {
+        let mut a = self.clone();
+        a.sync_model();
+        a.model
+    }
 }
 
-/// Context the effects need beyond the rows: the field magnitude at mid-range z_m and the
-/// largest z_m of the training data.
+/// What the candidates need to know of the training data besides its rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ctx {
     /// |B| at the middle of the z_m range of the training data [T].
@@ -239,97 +337,166 @@ pub struct Ctx {
     pub z_max: f64,
     /// Smallest z_m of the training data [mm].
     pub z_min: f64,
+    /// Smallest f of the training data [Hz].
+    pub f_min: f64,
+    /// Largest f of the training data [Hz].
+    pub f_max: f64,
+    /// Smallest positive spacing of rows within a session [s].
+    pub dt_min: f64,
+    /// Longest session [s].
+    pub t_span: f64,
+    /// The baseline's lateral distance of the swarm from the rotation axis [mm].
+    pub lateral_mm: f64,
 }
 
 impl Ctx {
     /// From the data set.
     pub fn new(model: &Model, ds: &Dataset) -> Ctx {
-        let (zs, _) = ds.levels();
-        let zm = (zs.first().copied().unwrap_or(10.0) + zs.last().copied().unwrap_or(10.0)) / 2.0;
+        let (zs, fs) = ds.levels();
+        let z_min = zs.first().copied().unwrap_or(3.5);
+        let z_max = zs.last().copied().unwrap_or(23.5);
+        let dt_min = ds
+            .rows
+            .iter()
+            .map(|r| r.dt)
+            .filter(|d| *d > 0.0)
+            .fold(f64::INFINITY, f64::min);
+        let t_span = ds.rows.iter().map(|r| r.t).fold(0.0, f64::max);
         Ctx {
-            b_mid: model.magnet.at(zm * 1e-3).b.max(1e-12),
-            z_max: zs.last().copied().unwrap_or(20.0),
-            z_min: zs.first().copied().unwrap_or(3.5),
+            b_mid: field_b(model, (z_min + z_max) / 2.0).max(1e-12),
+            z_max,
+            z_min,
+            f_min: fs.first().copied().unwrap_or(1.0),
+            f_max: fs.last().copied().unwrap_or(10.0),
+            dt_min: if dt_min.is_finite() { dt_min } else { 1.0 },
+            t_span,
+            lateral_mm: model.magnet.lateral_offset_m * 1e3,
         }
     }
 }
 
-/// Steady map of the augmented model at every point of `ds` [mm].
-pub fn point_map(aug: &Augmented, ds: &Dataset, ctx: &Ctx) -> Vec<[f64; 2]> {
-    let m = &aug.model;
-    let phase = aug.eff("phase_lag");
-    let coh = aug.eff("cohesion_loss");
-    let cen = aug.eff("centroid_offset");
+/// The physical steady map (with the effects that change it) at (z_m [mm], f [Hz]), with a
+/// large finite value where the model breaks [mm].
+fn map_point(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
+    let sp = steady::evaluate(m, z_mm * 1e-3, hz_to_rad_s(f_hz));
+    let ok = |v: f64| if v.is_finite() { v } else { 1e6 };
+    [ok(sp.r1), ok(sp.r2)]
+}
+
+/// Physical steady map of the augmented model at every point of `ds` [mm].
+pub fn point_map(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
+    let m = aug.synced();
     ds.points
         .iter()
-        .map(|&(z, f)| {
-            let mut r = predict_point(m, z, f);
-            if let Some(pp) = phase {
-                let b = m.magnet.at(z * 1e-3).b.max(1e-12);
-                let fso = pp[2] * (b / ctx.b_mid).powf(pp[3]);
-                let s = logistic((f - fso) / (0.1 * fso).max(0.05));
-                r[0] *= 1.0 + pp[0] * s;
-                r[1] *= 1.0 + pp[1] * s;
-            }
-            if let Some(c) = coh {
-                let w = c[3].max(1e-3);
-                let s = logistic((z - c[2]) / w) / logistic((ctx.z_max - c[2]) / w).max(1e-300);
-                r[0] *= 1.0 + c[0] * s;
-                r[1] *= 1.0 + c[1] * s;
-            }
-            if let Some(c) = cen {
-                let s = (-(z - ctx.z_min) / c[2].max(1e-3)).exp();
-                r[0] *= 1.0 + c[0] * s;
-                r[1] *= 1.0 + c[1] * s;
-            }
-            r
-        })
+        .map(|&(z, f)| map_point(&m, z, f))
         .collect()
 }
 
-/// Predicted radii at every row of `ds` [mm].
-pub fn predict(aug: &Augmented, ds: &Dataset, ctx: &Ctx) -> Vec<[f64; 2]> {
-    let map = point_map(aug, ds, ctx);
-    let mut out: Vec<[f64; 2]> = ds
-        .rows
+/// Predicted (observed) radii at every row of `ds` [mm]: the steady map plus the baseline's
+/// transient part, the formation mode blended in, then drift and camera as observed at the
+/// row's session time.
+pub fn predict(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
+    let m = aug.synced();
+    let map: Vec<[f64; 2]> = ds
+        .points
         .iter()
-        .map(|r| {
-            let m = map[r.point];
-            [m[0] + r.trans[0], m[1] + r.trans[1]]
-        })
+        .map(|&(z, f)| map_point(&m, z, f))
         .collect();
-    if let Some(tau) = aug.eff("formation_lag").map(|v| v[0]) {
-        let mut y = [0.0; 2];
-        for (i, r) in ds.rows.iter().enumerate() {
-            let x = out[i];
-            if i == 0 || ds.rows[i - 1].sess != r.sess {
-                y = x;
-            } else {
-                let k = (-r.dt / tau.max(1e-9)).exp();
-                for a in 0..2 {
-                    y[a] = x[a] + (y[a] - x[a]) * k;
-                }
-            }
-            out[i] = y;
+    let fx = &m.effects;
+    let mut out: Vec<[f64; 2]> = Vec::with_capacity(ds.rows.len());
+    // The state at the current visit's input change: this model's radius at the row before.
+    let mut start: Option<[f64; 2]> = None;
+    for (i, r) in ds.rows.iter().enumerate() {
+        let s = map[r.point];
+        if i == 0 || ds.rows[i - 1].sess != r.sess {
+            start = None;
+        } else if ds.rows[i - 1].visit != r.visit {
+            start = Some(out[i - 1]);
         }
+        let mut x = [0.0; 2];
+        for a in 0..2 {
+            x[a] = match start {
+                Some(st) if r.frac[a].is_finite() => s[a] + r.frac[a] * (st[a] - s[a]),
+                _ => s[a] + r.trans[a],
+            };
+        }
+        out.push(x);
     }
-    if let Some(k) = aug.eff("particle_drift") {
+    if let Some(fl) = &fx.formation_lag {
+        formation(fl, ds, &map, &mut out);
+    }
+    if fx.observes() {
         for (o, r) in out.iter_mut().zip(&ds.rows) {
-            let th = r.t / 3600.0;
-            o[0] *= 1.0 + k[0] * th;
-            o[1] *= 1.0 + k[1] * th;
-        }
-    }
-    if let Some(o) = aug.eff("camera_bias") {
-        for x in out.iter_mut() {
-            x[0] += o[0];
-            x[1] += o[1];
+            *o = fx.observe(*o, r.t);
         }
     }
     out
 }
 
-/// Mid-range |B| helper for the report (field at a z_m [mm]).
+/// Blend the slow formation mode into the footprint, row by row: formed at rest at a
+/// session's first row, then driven toward the steady map of each row's inputs over the time
+/// since the previous row (the inputs a row names are in force since that row: the log
+/// convention `predict` replays).
+fn formation(fl: &FormationLag, ds: &Dataset, map: &[[f64; 2]], out: &mut [[f64; 2]]) {
+    let mut xv = [[0.0; 2]; 2];
+    for (i, r) in ds.rows.iter().enumerate() {
+        let target = map[r.point];
+        if i == 0 || ds.rows[i - 1].sess != r.sess {
+            xv = [[target[0], 0.0], [target[1], 0.0]];
+        } else if r.dt > 0.0 {
+            for a in 0..2 {
+                xv[a] = fl.propagate(xv[a], target[a], r.dt);
+            }
+        }
+        for a in 0..2 {
+            out[i][a] = (1.0 - fl.share) * out[i][a] + fl.share * xv[a][0];
+        }
+    }
+}
+
+/// |B| at a z_m [mm] [T].
 pub fn field_b(model: &Model, z_mm: f64) -> f64 {
     steady::evaluate(model, z_mm * 1e-3, 1.0).field.b
+}
+
+/// Step-out frequency [Hz] of a model's `phase_lag` at z_m [mm] (None when it is off).
+pub fn step_out_hz(model: &Model, z_mm: f64) -> Option<f64> {
+    let pl = model.effects.phase_lag?;
+    let b = field_b(model, z_mm) / model.steady.B_ref;
+    Some(pl.f_so_hz * b.powf(pl.nu))
+}
+
+/// Why a fitted candidate is not a plausible description of the data's residual (empty:
+/// plausible): a location outside the data (a step-out that no measured frequency reaches, or
+/// one below every measured frequency at every field, is a trend over the whole grid, not a
+/// step-out; a fade that starts before the smallest z_m likewise).
+pub fn implausible(name: &str, aug: &Augmented, ctx: &Ctx) -> Vec<String> {
+    let m = aug.synced();
+    let mut out = Vec::new();
+    match name {
+        "phase_lag" => {
+            if let (Some(a), Some(b)) = (step_out_hz(&m, ctx.z_min), step_out_hz(&m, ctx.z_max)) {
+                let (lo, hi) = (a.min(b), a.max(b));
+                if hi < ctx.f_min || lo > ctx.f_max {
+                    out.push(format!(
+                        "step-out frequency {lo:.3}-{hi:.3} Hz over the data's z_m outside the \
+                         measured frequencies [{}, {}] Hz",
+                        ctx.f_min, ctx.f_max
+                    ));
+                }
+            }
+        }
+        "cohesion_loss" => {
+            if let Some(c) = m.effects.cohesion_loss {
+                if c.z_c_mm < ctx.z_min || c.z_c_mm >= ctx.z_max {
+                    out.push(format!(
+                        "onset z_c = {:.3} mm outside the data's z_m range [{}, {}) mm",
+                        c.z_c_mm, ctx.z_min, ctx.z_max
+                    ));
+                }
+            }
+        }
+        _ => {}
+    }
+    out
 }

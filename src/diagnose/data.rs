@@ -40,6 +40,12 @@ pub struct DRow {
     pub settled: bool,
     /// Baseline replay minus baseline steady map [mm].
     pub trans: [f64; 2],
+    /// The same transient as a fraction of the step the row's visit started with:
+    /// (replay - map) / (state at the input change - map), per axis; NaN where the step is
+    /// too small to scale (then `trans` is added as is). A model whose map differs from the
+    /// baseline's starts each visit from another state and approaches another target; the
+    /// fraction carries the baseline's ODE (4) time scale over to it.
+    pub frac: [f64; 2],
     /// Line in the source file.
     pub line: usize,
 }
@@ -100,6 +106,16 @@ impl Dataset {
                 .collect();
             let rep = replay(baseline, &inputs, 1e-6)
                 .with_context(|| format!("replaying session {} through the baseline", s.name))?;
+            // State at each visit's input change: the replay at the row before its first row
+            // (the inputs change right after that row); a session starts formed at rest.
+            let mut start: Vec<Option<[f64; 2]>> = vec![None; s.rows.len()];
+            for i in 1..s.rows.len() {
+                start[i] = if s.rows[i].visit != s.rows[i - 1].visit {
+                    Some(rep[i - 1])
+                } else {
+                    start[i - 1]
+                };
+            }
             let mut vmap: BTreeMap<usize, usize> = BTreeMap::new();
             let mut last_t: Option<f64> = None;
             let mut prev_visit: Option<usize> = None;
@@ -128,6 +144,15 @@ impl Dataset {
                     }
                 };
                 let ss = predict_point(baseline, r.z_mm, r.f_hz);
+                let mut frac = [f64::NAN; 2];
+                if let Some(st) = start[i] {
+                    for a in 0..2 {
+                        let step = st[a] - ss[a];
+                        if step.abs() > 0.05 {
+                            frac[a] = (rep[i][a] - ss[a]) / step;
+                        }
+                    }
+                }
                 let row = DRow {
                     sess: si,
                     visit: vi,
@@ -140,6 +165,7 @@ impl Dataset {
                     r: meas,
                     settled: r.settled,
                     trans: [rep[i][0] - ss[0], rep[i][1] - ss[1]],
+                    frac,
                     line: r.line,
                 };
                 last_t = Some(r.t);

@@ -7,6 +7,9 @@ use crate::identify::params::{self, Free};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
 
+/// Most starts refined by a local fit (the rest of a start grid is ranked by cost only).
+const MAX_REFINED: usize = 3;
+
 /// One free knob: a baseline parameter or an effect parameter.
 #[derive(Debug, Clone, Copy)]
 enum Knob {
@@ -19,7 +22,7 @@ enum Knob {
 }
 
 impl Knob {
-    fn bounds(&self) -> (f64, f64, bool) {
+    fn bounds(self) -> (f64, f64, bool) {
         match self {
             Knob::Base(f) => (
                 f.lo,
@@ -29,7 +32,7 @@ impl Knob {
             Knob::Eff { def, .. } => (def.lo, def.hi, def.log),
         }
     }
-    fn to_theta(&self, u: f64) -> f64 {
+    fn to_theta(self, u: f64) -> f64 {
         let (lo, hi, log) = self.bounds();
         if log {
             u.exp().clamp(lo, hi)
@@ -37,7 +40,7 @@ impl Knob {
             lo + (hi - lo) * (1.0 + u.sin()) / 2.0
         }
     }
-    fn to_u(&self, t: f64) -> f64 {
+    fn to_u(self, t: f64) -> f64 {
         let (lo, hi, log) = self.bounds();
         let t = t.clamp(lo, hi);
         if log {
@@ -75,7 +78,7 @@ struct Problem<'a> {
     aug: Augmented,
     knobs: &'a [Knob],
     ds: &'a Dataset,
-    ctx: &'a Ctx,
+
     train: &'a [usize],
     sd: [f64; 2],
     u: DVector<f64>,
@@ -83,9 +86,7 @@ struct Problem<'a> {
 
 impl Problem<'_> {
     fn res_of(&self, a: &Augmented) -> DVector<f64> {
-        let mut a = a.clone();
-        a.sync_model();
-        let pred = candidates::predict(&a, self.ds, self.ctx);
+        let pred = candidates::predict(a, self.ds);
         let mut out = DVector::zeros(2 * self.train.len());
         for (k, &i) in self.train.iter().enumerate() {
             for ax in 0..2 {
@@ -144,7 +145,7 @@ pub fn fit(
 ) -> FitResult {
     let mut knobs: Vec<Knob> = free.iter().map(|f| Knob::Base(*f)).collect();
     for (e, (name, _)) in start.effects.iter().enumerate() {
-        for (i, def) in candidates::params(name).into_iter().enumerate() {
+        for (i, def) in candidates::params(name, ctx).into_iter().enumerate() {
             knobs.push(Knob::Eff {
                 effect: e,
                 idx: i,
@@ -165,33 +166,35 @@ pub fn fit(
             inits.push(a);
         }
     }
+    // A grid of starts (more than a few): each is first fitted with the new effect's scan
+    // parameters (its location or time scale) held at their start value and few iterations;
+    // the best few are then refined with everything free. The locations (a step-out between
+    // two measured frequencies, an onset between two distances) make the cost piecewise
+    // smooth, and a local fit from a distorted baseline otherwise runs off to the piece where
+    // the effect vanishes.
+    if inits.len() > MAX_REFINED {
+        let last = start.effects.len() - 1;
+        let held: Vec<Knob> = knobs
+            .iter()
+            .copied()
+            .filter(|k| !matches!(k, Knob::Eff { effect, def, .. } if *effect == last && def.scan))
+            .collect();
+        let mut ranked: Vec<(f64, Augmented)> = inits
+            .into_iter()
+            .map(|a| {
+                let (aug, cost) = local_fit(&a, &held, ds, train, sd, 8);
+                (cost, aug)
+            })
+            .collect();
+        ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
+        inits = ranked.into_iter().take(MAX_REFINED).map(|x| x.1).collect();
+    }
     let mut best: Option<FitResult> = None;
     for init in inits {
-        let u0 = DVector::from_iterator(knobs.len(), knobs.iter().map(|k| k.to_u(k.get(&init))));
-        let mut prob = Problem {
-            aug: init.clone(),
-            knobs: &knobs,
-            ds,
-            ctx,
-            train,
-            sd,
-            u: u0.clone(),
-        };
-        prob.set_params(&u0);
-        let (prob, _rep) = LevenbergMarquardt::new()
-            .with_ftol(1e-7)
-            .with_xtol(1e-7)
-            .with_gtol(1e-9)
-            .with_patience(30)
-            .minimize(prob);
-        let cost = prob.res_of(&prob.aug).norm_squared();
-        let cost = if cost.is_finite() {
-            cost
-        } else {
-            f64::INFINITY
-        };
+        let (fitted, cost) = local_fit(&init, &knobs, ds, train, sd, 30);
+        let prob_aug = fitted;
         if best.as_ref().map(|b| cost < b.cost).unwrap_or(true) {
-            let mut aug = prob.aug.clone();
+            let mut aug = prob_aug.clone();
             aug.sync_model();
             let mut at_bound = Vec::new();
             for k in &knobs {
@@ -217,4 +220,39 @@ pub fn fit(
         }
     }
     best.expect("at least one start")
+}
+
+/// A bounded Levenberg-Marquardt fit of `knobs` from `init` on the rows `train`: the fitted
+/// model and its weighted sum of squares (infinite where the model breaks).
+fn local_fit(
+    init: &Augmented,
+    knobs: &[Knob],
+    ds: &Dataset,
+    train: &[usize],
+    sd: [f64; 2],
+    patience: usize,
+) -> (Augmented, f64) {
+    let u0 = DVector::from_iterator(knobs.len(), knobs.iter().map(|k| k.to_u(k.get(init))));
+    let mut prob = Problem {
+        aug: init.clone(),
+        knobs,
+        ds,
+        train,
+        sd,
+        u: u0.clone(),
+    };
+    prob.set_params(&u0);
+    let (prob, _rep) = LevenbergMarquardt::new()
+        .with_ftol(1e-7)
+        .with_xtol(1e-7)
+        .with_gtol(1e-9)
+        .with_patience(patience)
+        .minimize(prob);
+    let cost = prob.res_of(&prob.aug).norm_squared();
+    let cost = if cost.is_finite() {
+        cost
+    } else {
+        f64::INFINITY
+    };
+    (prob.aug, cost)
 }

@@ -33,7 +33,6 @@ pub mod gap;
 pub mod gp;
 pub mod report;
 pub mod stats;
-pub mod synth;
 
 use crate::identify::{self, data::SettleRule};
 use crate::log::{Log, ReadOptions};
@@ -294,7 +293,12 @@ pub fn diagnose(
         progress: false,
         ..identify::Config::default()
     };
-    let ident = identify::identify(std::slice::from_ref(log), prior, &icfg)
+    // The baseline is the prior without effects: a prior that has some (an earlier run's
+    // augmented.json) lends its base parameters as start values; the effects are what the
+    // candidates are for.
+    let mut prior = prior.clone();
+    prior.effects = magswarm_model::effects::Effects::default();
+    let ident = identify::identify(std::slice::from_ref(log), &prior, &icfg)
         .context("fitting the baseline (identify)")?;
     pb.inc(1);
     let baseline = ident.model.clone();
@@ -306,9 +310,9 @@ pub fn diagnose(
     let row_sd = pe.row_sd();
     let sd = [row_sd[0].max(1e-3), row_sd[1].max(1e-3)];
     let ctx = Ctx::new(&baseline, &ds);
-    let base_aug = Augmented::baseline(&baseline);
-    let base_map = candidates::point_map(&base_aug, &ds, &ctx);
-    let base_pred = candidates::predict(&base_aug, &ds, &ctx);
+    let base_aug = Augmented::baseline(&baseline, &ctx);
+    let base_map = candidates::point_map(&base_aug, &ds);
+    let base_pred = candidates::predict(&base_aug, &ds);
     let res: Vec<[f64; 2]> = ds
         .rows
         .iter()
@@ -436,8 +440,8 @@ pub fn diagnose(
                     w.source
                 );
             }
-            let pb_ = candidates::predict(&attr.baseline.full.aug, &wds, &ctx);
-            let pa = candidates::predict(&attr.augmented.full.aug, &wds, &ctx);
+            let pb_ = candidates::predict(&attr.baseline.full.aug, &wds);
+            let pa = candidates::predict(&attr.augmented.full.aug, &wds);
             Some(Withheld {
                 source: w.source.clone(),
                 baseline: rmse(&wds, &pb_),

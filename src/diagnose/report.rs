@@ -51,32 +51,24 @@ fn pool(a: Rmse, b: Option<Rmse>) -> [f64; 2] {
     }
 }
 
-/// The augmented model's own model file: the baseline's refitted parameters, and a provenance
-/// that lists every accepted effect with its parameters.
+/// The parameters of a candidate's effect in a fitted model, as `name = value unit` strings.
+fn param_strings(name: &str, m: &magswarm_model::Model) -> Vec<String> {
+    candidates::model_params(name, m)
+        .into_iter()
+        .map(|(p, u, v)| format!("{p} = {} {u}", g(v)))
+        .collect()
+}
+
+/// The augmented model's own model file: the baseline's refitted parameters with every
+/// accepted effect switched on at its fitted values (runs as is in the FMU and `predict`).
 fn augmented_model(d: &Diagnosis) -> magswarm_model::Model {
-    let mut m = d.attr.augmented.full.aug.model.clone();
-    let effs: Vec<String> = d
-        .attr
-        .augmented
-        .full
-        .aug
-        .effects
-        .iter()
-        .map(|(n, v)| {
-            let ps: Vec<String> = candidates::params(n)
-                .iter()
-                .zip(v)
-                .map(|(p, x)| format!("{}={} {}", p.name, g(*x), p.unit))
-                .collect();
-            format!("{n}({})", ps.join(", "))
-        })
-        .collect();
+    let mut m = d.attr.augmented.full.aug.synced();
     m.name = format!("{}-augmented", d.ident.model.name);
     m.provenance = format!(
-        "magswarm diagnose {} from {}: baseline refitted with the accepted effects [{}]",
+        "magswarm diagnose {} from {}: baseline refitted with the accepted effects [{}] switched on",
         env!("CARGO_PKG_VERSION"),
         d.sources.join(", "),
-        effs.join("; ")
+        d.attr.accepted.join(", ")
     );
     m
 }
@@ -90,26 +82,17 @@ pub fn json(d: &Diagnosis) -> Value {
         .evals
         .iter()
         .map(|e| {
-            let vals = e
-                .model
-                .full
-                .aug
-                .effects
-                .iter()
-                .find(|x| x.0 == e.name)
-                .map(|x| x.1.clone())
-                .unwrap_or_default();
-            let mut params = serde_json::Map::new();
-            for (p, v) in candidates::params(&e.name).iter().zip(&vals) {
-                params.insert(p.name.to_string(), json!(v));
-            }
+            let fitted = e.model.full.aug.synced();
+            let mp = candidates::model_params(&e.name, &fitted);
+            let params: serde_json::Map<String, Value> =
+                mp.iter().map(|(p, _, v)| (p.to_string(), json!(v))).collect();
             let tr = super::rmse(&d.ds, &e.model.pred);
             let cv = super::rmse(&d.ds, &e.model.cv);
             json!({
                 "name": e.name,
                 "accepted": e.accepted,
                 "params": params,
-                "param_units": candidates::params(&e.name).iter().map(|p| (p.name, p.unit)).collect::<std::collections::BTreeMap<_,_>>(),
+                "param_units": mp.iter().map(|(p, u, _)| (*p, *u)).collect::<std::collections::BTreeMap<_,_>>(),
                 "train_rmse_mm": axes(tr.rmse),
                 "heldout_rmse_mm": axes(cv.rmse),
                 "round": e.round,
@@ -485,20 +468,7 @@ fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         let _ = writeln!(w, "| effect | round | withheld log-lik gain | BIC penalty | p (paired, one-sided) | plausible | signature (share of a region removed) | withheld RMSE r1 / r2 [mm] | parameters | verdict |\n|---|---|---|---|---|---|---|---|---|---|");
         for e in &d.attr.evals {
             let cv = super::rmse(&d.ds, &e.model.cv);
-            let vals = e
-                .model
-                .full
-                .aug
-                .effects
-                .iter()
-                .find(|x| x.0 == e.name)
-                .map(|x| x.1.clone())
-                .unwrap_or_default();
-            let ps: Vec<String> = candidates::params(&e.name)
-                .iter()
-                .zip(&vals)
-                .map(|(p, v)| format!("{} = {} {}", p.name, g(*v), p.unit))
-                .collect();
+            let ps = param_strings(&e.name, &e.model.full.aug.synced());
             let verdict = if e.accepted {
                 "**accepted**".to_string()
             } else if !e.ambiguous_with.is_empty() {

@@ -29,6 +29,7 @@
 //! noise-free lab run of a model without foreign effects is exactly `predict` of its inputs.
 
 pub mod plant;
+pub mod presets;
 pub mod protocol;
 pub mod truth;
 

@@ -46,6 +46,10 @@ pub enum Protocol {
         /// Time between measurements of a visit [s].
         #[serde(default = "one_f")]
         sample_s: f64,
+        /// Extra measurements during the approach, at these times after the input change [s]
+        /// (each before `settle_s`): they show formation and transients.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        approach_s: Vec<f64>,
     },
     /// Frequency sweeps up then down at each distance, measured through each dwell
     /// (transients included).
@@ -172,6 +176,7 @@ impl Protocol {
                 repeats,
                 settle_s,
                 sample_s,
+                approach_s,
             } => {
                 if z_mm.is_empty() || f_hz.is_empty() {
                     return Err("protocol.z_mm and protocol.f_hz need at least one value".into());
@@ -181,6 +186,16 @@ impl Protocol {
                 }
                 inputs(z_mm, f_hz)?;
                 nonneg("settle_s", *settle_s)?;
+                let mut prev = 0.0;
+                for (k, a) in approach_s.iter().enumerate() {
+                    if !(a.is_finite() && *a > prev && *a < *settle_s) {
+                        return Err(format!(
+                            "protocol.approach_s[{k}] = {a}: approach times must increase, be > 0 \
+                             and lie before settle_s = {settle_s} s"
+                        ));
+                    }
+                    prev = *a;
+                }
                 pos("sample_s", *sample_s)
             }
             Protocol::Sweep {
@@ -226,8 +241,8 @@ impl Protocol {
 
     /// The visits of one session, in time order (randomised where the protocol says).
     pub fn session(&self, rng: &mut StdRng) -> Vec<Visit> {
-        // (z, f, settle, n, dt) per visit; times are laid out below.
-        let mut plan: Vec<(f64, f64, f64, usize, f64)> = Vec::new();
+        // (z, f, settle, n, dt, approach) per visit; times are laid out below.
+        let mut plan: Vec<(f64, f64, f64, usize, f64, &[f64])> = Vec::new();
         match self {
             Protocol::Grid {
                 z_mm,
@@ -236,6 +251,7 @@ impl Protocol {
                 repeats,
                 settle_s,
                 sample_s,
+                approach_s,
             } => {
                 for _ in 0..*visits {
                     let mut pts: Vec<(f64, f64)> = z_mm
@@ -245,7 +261,7 @@ impl Protocol {
                     shuffle(&mut pts, rng);
                     plan.extend(
                         pts.into_iter()
-                            .map(|(z, f)| (z, f, *settle_s, *repeats, *sample_s)),
+                            .map(|(z, f)| (z, f, *settle_s, *repeats, *sample_s, &approach_s[..])),
                     );
                 }
             }
@@ -262,7 +278,7 @@ impl Protocol {
                 let per = samples_in(*dwell_s, *sample_s);
                 for &z in z_mm {
                     for &f in up.iter().chain(up.iter().rev().skip(1)) {
-                        plan.push((z, f, *sample_s, per, *sample_s));
+                        plan.push((z, f, *sample_s, per, *sample_s, &[]));
                     }
                 }
             }
@@ -279,16 +295,18 @@ impl Protocol {
                     let f = lerp(f_range_hz, rng.random::<f64>());
                     // Commanded values at the resolution a rig would log.
                     let (z, f) = ((z * 100.0).round() / 100.0, (f * 100.0).round() / 100.0);
-                    plan.push((z, f, *sample_s, per, *sample_s));
+                    plan.push((z, f, *sample_s, per, *sample_s, &[]));
                 }
             }
         }
         let mut t = 0.0f64;
         plan.into_iter()
-            .map(|(z, f, settle, n, dt)| {
+            .map(|(z, f, settle, n, dt, approach)| {
                 let start = t;
-                let t_s: Vec<f64> = (0..n)
-                    .map(|j| round_us(start + settle + j as f64 * dt))
+                let t_s: Vec<f64> = approach
+                    .iter()
+                    .map(|a| round_us(start + a))
+                    .chain((0..n).map(|j| round_us(start + settle + j as f64 * dt)))
                     .collect();
                 t = *t_s.last().unwrap_or(&start);
                 Visit {

@@ -90,10 +90,15 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     let (g_r, g_rd) = pow_d(g, p.rho);
     let dg_dz = field.dg_z_dz / c.g_unit_t_per_m;
 
+    // The swarm's rotation rate: |omega| unless the `phase_lag` effect makes it step out.
+    // It drives Phi (6) and the particle interaction term of (7) (the particles' own
+    // rotation sets their hydrodynamic interaction); without the effect it is w itself.
+    let (wf, dwf, dwf_dz) = swarm_rate(model, w, dw, &field);
+
     // Particle term a_P (B/B_ref)^mu_P [1 + log(1 + c_P w^q_P)].
     let bn = field.b / p.B_ref;
     let (b_mu, b_mud) = pow_d(bn, p.mu_P);
-    let (w_qp, w_qpd) = pow_d(w, p.q_P);
+    let (w_qp, w_qpd) = pow_d(wf, p.q_P);
     let mut arg = 1.0 + p.c_P * w_qp;
     let mut darg_dw = p.c_P * w_qpd;
     if arg < c.log_arg_floor {
@@ -104,8 +109,11 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     let l = 1.0 + c.log_base.log(arg);
     let dl_dw = c.log_base.dlog(arg) * darg_dw;
     let part = p.a_P * b_mu * l;
-    let dpart_dz = p.a_P * b_mud * (field.db_dz / p.B_ref) * l;
-    let dpart_dw = p.a_P * b_mu * dl_dw * dw;
+    let mut dpart_dz = p.a_P * b_mud * (field.db_dz / p.B_ref) * l;
+    if dwf_dz != 0.0 {
+        dpart_dz += p.a_P * b_mu * dl_dw * dwf_dz;
+    }
+    let dpart_dw = p.a_P * b_mu * dl_dw * dwf;
 
     let common = p.s_0 + p.a_G * g_r + part;
     let dcommon_dz = p.a_G * g_rd * dg_dz + dpart_dz;
@@ -142,8 +150,7 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
         }
     };
 
-    // Phi (6), at the swarm's rotation rate (|omega| unless it steps out).
-    let (wf, dwf, dwf_dz) = swarm_rate(model, w, dw, &field);
+    // Phi (6), at the swarm's rotation rate.
     let (w_q, w_qd) = pow_d(wf, p.q);
     let phi = (p.N * (w_q - 1.0)).exp();
     let dlnphi_dw = p.N * w_qd * dwf;
