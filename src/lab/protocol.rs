@@ -242,7 +242,7 @@ impl Protocol {
     /// The visits of one session, in time order (randomised where the protocol says).
     pub fn session(&self, rng: &mut StdRng) -> Vec<Visit> {
         // (z, f, settle, n, dt, approach) per visit; times are laid out below.
-        let mut plan: Vec<(f64, f64, f64, usize, f64, &[f64])> = Vec::new();
+        let mut plan: Vec<Planned> = Vec::new();
         match self {
             Protocol::Grid {
                 z_mm,
@@ -318,6 +318,10 @@ impl Protocol {
             .collect()
     }
 }
+
+/// A visit before its times are laid out: z [mm], f [Hz], settle [s], measurements, their
+/// spacing [s], approach measurement times [s].
+type Planned<'a> = (f64, f64, f64, usize, f64, &'a [f64]);
 
 fn samples_in(dwell: f64, dt: f64) -> usize {
     ((dwell / dt + 1e-9).floor() as usize).max(1)
