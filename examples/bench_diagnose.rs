@@ -1,6 +1,6 @@
 //! Timing of `magswarm diagnose` on a 500-row log with every candidate evaluated: the seed's
 //! 50-point grid from the virtual lab (`magswarm::lab::presets`), one visit each (2 approach +
-//! 8 settled rows), with a phase lag (in the lab's foreign form) in the truth
+//! 8 settled rows), with a cohesion loss (in the lab's foreign form) in the truth
 //! so that the gap is significant and all six candidates are refitted on every fold (and the
 //! remaining five again in the next forward-selection round).
 //!
@@ -30,7 +30,7 @@ fn cpu_seconds() -> f64 {
 }
 
 fn main() {
-    let c = Campaign::seed_grid_500(&[("phase_lag", 1.0)], 3).expect("campaign");
+    let c = Campaign::seed_grid_500(&[("cohesion_loss", 1.0)], 3).expect("campaign");
     let log = c.log("bench.csv").expect("lab log");
     let valid = log.rows.iter().filter(|r| r.valid).count();
     println!(

@@ -283,9 +283,22 @@ pub fn model_params(name: &str, m: &Model) -> Vec<(&'static str, &'static str, f
     effects::params_of(name)
         .map(|p| {
             let field = p.name.split_once('.').map(|x| x.1).unwrap_or(p.name);
-            (field, p.unit.unwrap_or("-"), (p.get)(m))
+            (field, display_unit(p), (p.get)(m))
         })
         .collect()
+}
+
+/// A registry row's unit for people: its FMI unit, else the unit its description names in
+/// brackets (units FMI has no definition for, such as 1/mm2), else "-".
+fn display_unit(p: &registry::Param) -> &'static str {
+    if let Some(u) = p.unit {
+        return u;
+    }
+    let d = p.description;
+    match (d.find('['), d.find(']')) {
+        (Some(a), Some(b)) if a < b => &d[a + 1..b],
+        _ => "-",
+    }
 }
 
 /// An augmented model: the baseline's (refitted) parameters and the active candidates'

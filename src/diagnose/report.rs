@@ -498,7 +498,7 @@ fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 verdict
             );
         }
-        let _ = writeln!(w, "\nRules (all must hold): withheld log-likelihood gain over the model of the previous round above the BIC penalty (k/2 ln visits); per-visit gains positive by a paired t test at alpha; no parameter at a fit bound and locations inside the data; and, refitted on all data, at least half of a significant region's residual removed. Forward selection adds effects one at a time. Candidate forms: see `src/diagnose/candidates.rs`.\n");
+        let _ = writeln!(w, "\nRules (all must hold): withheld log-likelihood gain over the model of the previous round above the BIC penalty (k/2 ln visits); per-visit gains positive by a paired t test at alpha; no parameter at a fit bound and locations inside the data; and, refitted on all data, at least half of a significant region's residual removed. Forward selection adds effects one at a time. The candidates are the model's own effect terms (docs/effects.md), refitted with the baseline; what each frees is in `src/diagnose/candidates.rs`. An accepted effect is switched on in `augmented.json` with these parameters.\n");
     }
     let _ = writeln!(w, "## Unexplained\n");
     if d.unexplained.is_empty() {
@@ -531,7 +531,7 @@ fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     for (f, cap) in figs {
         let _ = writeln!(w, "![{cap}]({f})\n\n*{cap}*\n");
     }
-    let _ = writeln!(w, "Files: `report.json` (all figures above as data), `baseline.json` (the model fitted without effects), `augmented.json` (the baseline refitted with the accepted effects; an effect the model file cannot hold yet is listed in its provenance).");
+    let _ = writeln!(w, "Files: `report.json` (all figures above as data), `baseline.json` (the model fitted without effects), `augmented.json` (the baseline refitted with the accepted effects switched on: it runs as is in `magswarm predict`, the FMU (`magswarm fmu --model`, or its `model_file` parameter) and the bridge's shadow model).");
     w
 }
 

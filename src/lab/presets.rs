@@ -10,7 +10,7 @@
 //! | effect | foreign form at strength s | model term diagnose fits |
 //! | --- | --- | --- |
 //! | `phase_lag` | the swarm driven at f (1 - 0.9 s / (1 + exp(-(f - 6 Hz) / 0.6 Hz))), no field dependence, in every term of (6)-(7) | Adler step-out at a field-scaled f_so, in Phi and E only |
-//! | `cohesion_loss` | radii x (1 + g_i ((z_m - 14 mm)_+)^2), g = s (0.0008, 0.0015) / mm^2, following changes with a 2 s lag | Gaussian fading of the stiffness past z_c |
+//! | `cohesion_loss` | radii x (1 + g_i ((z_m - 14 mm)_+)^2), g = s (0.0008, 0.0015) / mm^2, following changes with a 0.5 s lag | Gaussian fading of the stiffness past z_c |
 //! | `formation_lag` | the swarm sees the commands through a 1.5 s dead time and a 5 s first-order filter (x s) | a parallel second-order slow mode on the radii |
 //! | `particle_drift` | radii x (1 - 0.18 s sqrt(t / 1 h)) | radii x exp(rate t) |
 //! | `centroid_offset` | the centroid off the axis by 10 s mm at z_ref = 13.5 mm, growing with depth by tan(10 s deg) per mm (tilted rotation axis) | a constant radial offset |
@@ -54,7 +54,7 @@ pub fn foreign(name: &str, s: f64) -> Result<Foreign> {
             z0_mm: 14.0,
             gain: [0.0008 * s, 0.0015 * s],
             power: 2.0,
-            tau_s: 2.0,
+            tau_s: 0.5,
         },
         "formation_lag" => Foreign::InputLag {
             tau_s: 5.0 * s,
