@@ -93,7 +93,7 @@ def run_fmu(md, unzipdir, vr, rows, model_file=None, fmu_log=None):
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                     modelIdentifier=md.coSimulation.modelIdentifier, instanceName="parity")
     fmu.instantiate(callbacks=fmu_log.callbacks if fmu_log else None)
-    fmu.setupExperiment(startTime=0.0)
+    fmu.setupExperiment(startTime=rows[0][0])
     fmu.enterInitializationMode()
     if model_file is not None:
         fmu.setString([vr["model_file"]], [str(model_file)])
@@ -141,3 +141,53 @@ def test_model_file_parameter_with_effects_reproduces_predict(effects_model, sch
     # The effects are really in force: the default FMU without model_file differs by far more.
     base = run_fmu(model_description, unzipdir, vr, rows, fmu_log=fmu_log)
     assert np.abs(base - predicted).max() > 0.5
+
+
+def test_diagnose_augmented_model_runs_in_the_fmu(model_description, unzipdir, vr, fmu_log,
+                                                  tmp_path_factory):
+    """The user's path end to end: a lab campaign whose truth carries a cohesion loss in the
+    lab's foreign form, `magswarm diagnose` on it, and its augmented.json (the accepted effect
+    switched on) loaded into the FMU through `model_file`: the FMU reproduces `magswarm predict`
+    with that model on the campaign's inputs, and both differ from the baseline.json model."""
+    exe = magswarm_exe()
+    d = tmp_path_factory.mktemp("diagnose")
+    scenario = {
+        "foreign": [{"kind": "cohesion_poly", "z0_mm": 14.0, "gain": [0.0008, 0.0015],
+                     "power": 2.0, "tau_s": 0.5}],
+        "protocol": {"kind": "grid", "visits": 2, "repeats": 4, "settle_s": 20.0,
+                     "approach_s": [2.0, 5.0]},
+    }
+    (d / "scenario.json").write_text(json.dumps(scenario))
+    log = d / "campaign.csv"
+    subprocess.run([str(exe), "lab", "--scenario", str(d / "scenario.json"), "--seed", "3",
+                    "--quiet", "--out", str(log)], check=True, capture_output=True)
+    out = d / "report"
+    subprocess.run([str(exe), "diagnose", "--log", str(log), "--permutations", "199", "--out",
+                    str(out)], check=True, capture_output=True)
+    report = json.loads((out / "report.json").read_text())
+    assert "cohesion_loss" in report["accepted"], report["accepted"]
+    augmented = json.loads((out / "augmented.json").read_text())
+    assert set(augmented["effects"]) == set(report["accepted"])
+    # The first 120 rows of the campaign (about a fifth of it) through both.
+    with log.open() as fh:
+        rows = [(float(r["t_s"]), float(r["z_m_mm"]), float(r["f_hz"])) for r in csv.DictReader(fh)][:120]
+    inputs = d / "inputs.csv"
+    with inputs.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t_s", "z_m_mm", "f_hz"])
+        w.writerows(rows)
+    preds = {}
+    for name in ("augmented", "baseline"):
+        p = d / f"pred_{name}.csv"
+        subprocess.run([str(exe), "predict", "--model", str(out / f"{name}.json"), "--log",
+                        str(inputs), "--out", str(p)], check=True, capture_output=True)
+        with p.open() as fh:
+            preds[name] = np.array([[float(r["r1_mm"]), float(r["r2_mm"])] for r in csv.DictReader(fh)])
+    try:
+        got = run_fmu(model_description, unzipdir, vr, rows, model_file=out / "augmented.json",
+                      fmu_log=fmu_log)[:, :2]
+    except Exception as e:
+        raise AssertionError(f"FMU with augmented.json failed: {e}; FMU log: {fmu_log.messages}") from e
+    err = np.abs(got - preds["augmented"]).max()
+    assert err < 1e-4, f"FMU with augmented.json vs predict: max |diff| {err} mm"
+    assert np.abs(preds["augmented"] - preds["baseline"]).max() > 0.2
