@@ -10,6 +10,7 @@
 //! | `drift_sqrt` | particle drift | radii scale by 1 + c sqrt(t / 1 h) instead of exp(rate t) |
 //! | `camera_projection` | camera bias | the rotating ellipse is projected onto an image plane tilted about an arbitrary in-plane axis, at the rotation phase of each frame, then scaled and offset, instead of cos(tilt) on r2 |
 //! | `axis_tilt` | centroid offset | the centroid's distance from the axis grows with depth (tilted rotation axis): rho = rho_0 + offset + tan(tilt) (z - z_ref) |
+//! | `bump` | none: an effect no candidate describes | a smooth local change of the radii around one operating point, amp_i exp(-((z - z0)/w_z)^2/2 - ((f - f0)/w_f)^2/2) mm (a resonance of the tank, a reflection the camera picks up there): what diagnose must report as unexplained rather than misname |
 
 use anyhow::{bail, Result};
 use magswarm_model::{hz_to_rad_s, Model, Plant};
@@ -80,6 +81,19 @@ pub enum Foreign {
         #[serde(default = "z_ref")]
         z_ref_mm: f64,
     },
+    /// A local change of the radii around one operating point that no candidate describes.
+    Bump {
+        /// Centre z_m [mm].
+        z_mm: f64,
+        /// Centre frequency [Hz].
+        f_hz: f64,
+        /// Width in z_m (SD) [mm].
+        width_z_mm: f64,
+        /// Width in f (SD) [Hz].
+        width_f_hz: f64,
+        /// Change of r1, r2 at the centre [mm].
+        amp_mm: [f64; 2],
+    },
 }
 
 fn two() -> f64 {
@@ -102,6 +116,7 @@ impl Foreign {
             Foreign::DriftSqrt { .. } => "particle_drift",
             Foreign::CameraProjection { .. } => "camera_bias",
             Foreign::AxisTilt { .. } => "centroid_offset",
+            Foreign::Bump { .. } => "bump (no candidate)",
         }
     }
 
@@ -162,6 +177,20 @@ impl Foreign {
                 fin("offset_mm", offset_mm, -50.0, 50.0)?;
                 fin("tilt_deg", tilt_deg, -45.0, 45.0)?;
                 fin("z_ref_mm", z_ref_mm, -50.0, 200.0)
+            }
+            Foreign::Bump {
+                z_mm,
+                f_hz,
+                width_z_mm,
+                width_f_hz,
+                amp_mm,
+            } => {
+                fin("z_mm", z_mm, -50.0, 200.0)?;
+                fin("f_hz", f_hz, 0.0, 1e3)?;
+                fin("width_z_mm", width_z_mm, 1e-3, 1e3)?;
+                fin("width_f_hz", width_f_hz, 1e-3, 1e3)?;
+                fin("amp_mm[0]", amp_mm[0], -20.0, 20.0)?;
+                fin("amp_mm[1]", amp_mm[1], -20.0, 20.0)
             }
         }
     }
@@ -334,6 +363,20 @@ impl LabSwarm {
                 Foreign::DriftSqrt { c_per_sqrt_h } => {
                     let g = 1.0 + c_per_sqrt_h * (self.t.max(0.0) / 3600.0).sqrt();
                     r = [r[0] * g, r[1] * g];
+                }
+                Foreign::Bump {
+                    z_mm,
+                    f_hz,
+                    width_z_mm,
+                    width_f_hz,
+                    amp_mm,
+                } => {
+                    let (dz, df) = (
+                        (self.seen[0] - z_mm) / width_z_mm,
+                        (self.seen[1] - f_hz) / width_f_hz,
+                    );
+                    let g = (-0.5 * (dz * dz + df * df)).exp();
+                    r = [r[0] + amp_mm[0] * g, r[1] + amp_mm[1] * g];
                 }
                 Foreign::CameraProjection {
                     tilt_deg,
