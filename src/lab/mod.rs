@@ -322,6 +322,11 @@ pub struct LabArgs {
     /// Time between measurements [s].
     #[arg(long)]
     pub sample_s: Option<f64>,
+    /// Add an unmodelled effect in the lab's foreign form at a strength (1: the documented
+    /// size; see docs/lab.md): phase_lag, cohesion_loss, formation_lag, particle_drift,
+    /// centroid_offset, camera_bias. Repeat for several.
+    #[arg(long = "effect", value_name = "NAME[=STRENGTH]")]
+    pub effects: Vec<String>,
     /// Noise-free measurements (no scatter, no invalid frames).
     #[arg(long)]
     pub no_noise: bool,
@@ -399,6 +404,22 @@ pub fn resolve(a: &LabArgs) -> Result<Scenario> {
                 *sample_s = v;
             }
         }
+    }
+    for e in &a.effects {
+        let (name, strength) = match e.split_once('=') {
+            Some((n, s)) => {
+                let v: f64 = s.trim().parse().map_err(|_| {
+                    anyhow::anyhow!("--effect {e}: strength {s:?} is not a number")
+                })?;
+                if !(v.is_finite() && v >= 0.0) {
+                    bail!("--effect {e}: strength must be >= 0");
+                }
+                (n.trim(), v)
+            }
+            None => (e.trim(), 1.0),
+        };
+        let f = presets::foreign(name, strength).with_context(|| format!("--effect {e}"))?;
+        sc.foreign.push(f);
     }
     if a.no_noise {
         sc.noise = Noise::none();
