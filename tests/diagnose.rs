@@ -243,6 +243,32 @@ fn names_both_effects_of_a_mixture() {
     }
 }
 
+/// Another rig's campaign: another workspace (z_m 5-25 mm in 4 mm steps, f 0.5-11 Hz in
+/// 1.5 Hz steps) and a long campaign of three sessions (the swarm formed afresh, `t_s`
+/// restarting). The candidates' locations and time scales follow the data, not the seed's grid.
+#[test]
+fn other_workspaces_and_sessions() {
+    let mut c = Campaign::seed_grid(&[("phase_lag", 1.0)], 5).unwrap();
+    if let magswarm::lab::Protocol::Grid { z_mm, f_hz, .. } = &mut c.scenario.protocol {
+        *z_mm = vec![5.0, 9.0, 13.0, 17.0, 21.0, 25.0];
+        *f_hz = vec![0.5, 2.0, 3.5, 5.0, 6.5, 8.0, 9.5, 11.0];
+    }
+    let d =
+        diagnose::diagnose(&c.log("range.csv").unwrap(), None, &Model::paper(), &cfg()).unwrap();
+    eprintln!("{}", line("phase_lag, other grid", &d));
+    assert_eq!(
+        d.attr.accepted.first().map(|s| s.as_str()),
+        Some("phase_lag")
+    );
+    assert!(d.excess_removed()[2].unwrap_or(0.0) > 0.25);
+    let mut c = Campaign::seed_grid(&[("particle_drift", 1.0)], 5).unwrap();
+    c.scenario.sessions = 3;
+    let d = diagnose::diagnose(&c.log("long.csv").unwrap(), None, &Model::paper(), &cfg()).unwrap();
+    eprintln!("{}", line("particle_drift, 3 sessions", &d));
+    assert_eq!(d.attr.accepted, vec!["particle_drift".to_string()]);
+    assert!(d.excess_removed()[2].unwrap_or(0.0) >= 0.5);
+}
+
 #[test]
 fn null_logs_rarely_show_a_gap() {
     let n = 20;
