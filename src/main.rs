@@ -66,7 +66,6 @@ fn prepare_outputs(cmd: &Cmd) -> anyhow::Result<()> {
                 prepare_file("--out", &a.out)?;
             }
         }
-        Cmd::Diagnose(a) => prepare_dir("--out", &a.out)?,
         Cmd::Sweep(a) => prepare_file("--out", &a.out)?,
         Cmd::Inverse(_) | Cmd::Linearize(_) => {}
     }
