@@ -1,8 +1,8 @@
 //! The identification report: `DIR/report.md` and its PNG figures, and the short summary
-//! printed on stderr.
+//! printed on stderr. Rendered from the [`Identification`] as computed (its predictions
+//! included); nothing is refitted or re-predicted here except the smooth Phi(f) curve.
 
 use super::data::{self, OpPoint};
-use super::fit::predict_point;
 use super::{params, Collinear, Estimate, Identification};
 use crate::plot::{self, ErrorBar, ErrorSeries, Heatmap, Labels, Panel, Series};
 use anyhow::{Context, Result};
@@ -387,23 +387,32 @@ fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
     let m = &id.model;
     let mut out = Vec::new();
     // Predicted vs measured.
-    let pv = |pts: &[OpPoint], a: usize| -> Vec<(f64, f64)> {
+    let pv = |pts: &[OpPoint], pred: &[[f64; 2]], a: usize| -> Vec<(f64, f64)> {
         pts.iter()
-            .map(|p| (p.mean[a], predict_point(m, p.z_mm, p.f_hz)[a]))
+            .zip(pred)
+            .map(|(p, r)| (p.mean[a], r[a]))
             .collect()
     };
     let mut series = vec![
-        Series::points("r1 (fitted points)", pv(&id.points, 0)),
-        Series::points("r2 (fitted points)", pv(&id.points, 1)),
+        Series::points("r1 (fitted points)", pv(&id.points, &id.pred.points, 0)),
+        Series::points("r2 (fitted points)", pv(&id.points, &id.pred.points, 1)),
     ];
     if !id.withheld.is_empty() {
         series.push(
-            Series::new("r1 (withheld)", pv(&id.withheld, 0), plot::Style::Points)
-                .with_color(plot::PALETTE[2]),
+            Series::new(
+                "r1 (withheld)",
+                pv(&id.withheld, &id.pred.withheld, 0),
+                plot::Style::Points,
+            )
+            .with_color(plot::PALETTE[2]),
         );
         series.push(
-            Series::new("r2 (withheld)", pv(&id.withheld, 1), plot::Style::Points)
-                .with_color(plot::PALETTE[3]),
+            Series::new(
+                "r2 (withheld)",
+                pv(&id.withheld, &id.pred.withheld, 1),
+                plot::Style::Points,
+            )
+            .with_color(plot::PALETTE[3]),
         );
     }
     plot::pred_vs_meas(
@@ -421,9 +430,14 @@ fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
     ));
 
     // Residual maps over (z_m, f).
-    let all: Vec<&OpPoint> = id.points.iter().chain(&id.withheld).collect();
-    let mut zs: Vec<f64> = all.iter().map(|p| p.z_mm).collect();
-    let mut fs: Vec<f64> = all.iter().map(|p| p.f_hz).collect();
+    let all: Vec<(&OpPoint, &[f64; 2])> = id
+        .points
+        .iter()
+        .zip(&id.pred.points)
+        .chain(id.withheld.iter().zip(&id.pred.withheld))
+        .collect();
+    let mut zs: Vec<f64> = all.iter().map(|p| p.0.z_mm).collect();
+    let mut fs: Vec<f64> = all.iter().map(|p| p.0.f_hz).collect();
     for v in [&mut zs, &mut fs] {
         v.sort_by(|a, b| a.total_cmp(b));
         v.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
@@ -433,7 +447,7 @@ fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
         for a in 0..2 {
             let mut vals = vec![vec![f64::NAN; zs.len()]; fs.len()];
             let mut vmax: f64 = 0.0;
-            for p in &all {
+            for &(p, pred) in &all {
                 let i = zs
                     .iter()
                     .position(|z| (z - p.z_mm).abs() < 1e-6)
@@ -442,7 +456,7 @@ fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
                     .iter()
                     .position(|f| (f - p.f_hz).abs() < 1e-6)
                     .unwrap_or(0);
-                let r = predict_point(m, p.z_mm, p.f_hz)[a] - p.mean[a];
+                let r = pred[a] - p.mean[a];
                 vals[j][i] = r;
                 vmax = vmax.max(r.abs());
             }
@@ -480,8 +494,7 @@ fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
             .collect()
     };
     let mut bins: Vec<[Vec<f64>; 2]> = vec![[Vec::new(), Vec::new()]; edges.len()];
-    for p in &id.points {
-        let sp = steady::evaluate(m, p.z_mm * 1e-3, hz_to_rad_s(p.f_hz));
+    for (p, st) in id.points.iter().zip(&id.pred.stiffness) {
         let b = edges
             .iter()
             .enumerate()
@@ -489,8 +502,8 @@ fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
             .map(|x| x.0)
             .unwrap_or(0);
         for smp in &p.samples {
-            bins[b][0].push(smp[0] * sp.s_x.powf(s.alpha_1) / s.C_1);
-            bins[b][1].push(smp[1] * sp.s_y.powf(s.alpha_2) / s.C_2);
+            bins[b][0].push(smp[0] * st[0].powf(s.alpha_1) / s.C_1);
+            bins[b][1].push(smp[1] * st[1].powf(s.alpha_2) / s.C_2);
         }
     }
     let width = if edges.len() > 1 {

@@ -1,0 +1,227 @@
+//! The configuration of an identification: the command's flags (`IdentifyArgs`), their
+//! library face ([`Config`]) and the free/fixed split they resolve to.
+
+use super::data::SettleRule;
+use super::params::{self, Free, Group};
+use anyhow::{bail, Result};
+use std::path::PathBuf;
+
+/// Arguments of `magswarm identify`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct IdentifyArgs {
+    /// Measurement log(s) (CONTRACTS.md format); repeat for several.
+    #[arg(long, required = true)]
+    pub log: Vec<PathBuf>,
+    /// Output model JSON.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write report.md and plots into this directory.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Prior model JSON: start values, fixed parameters, conventions (default: paper model).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Free parameters, comma-separated (replaces the default set
+    /// C_1,C_2,a_K1,a_K2,alpha_1,alpha_2,N,q,K_tau).
+    #[arg(long, value_delimiter = ',')]
+    pub free: Option<Vec<String>>,
+    /// Parameters to hold at the prior value, comma-separated (removed from the free set).
+    #[arg(long, value_delimiter = ',')]
+    pub fix: Vec<String>,
+    /// Bounds override NAME=LO:HI (repeatable).
+    #[arg(long)]
+    pub bound: Vec<String>,
+    /// Fixed settle time [s] after an input change (overrides --settle-factor).
+    #[arg(long)]
+    pub settle_s: Option<f64>,
+    /// Settle time as a multiple of the model's slowest time constant at the inputs.
+    #[arg(long, default_value_t = 5.0)]
+    pub settle_factor: f64,
+    /// Number of LM starts (the prior plus random perturbations).
+    #[arg(long, default_value_t = 8)]
+    pub starts: usize,
+    /// Bootstrap replicates over operating points (0: none).
+    #[arg(long, default_value_t = 200)]
+    pub bootstrap: usize,
+    /// Random seed (starts, bootstrap).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Collinearity policy: fix, ridge or report.
+    #[arg(long, default_value = "fix")]
+    pub collinear: String,
+    /// Largest acceptable condition number of the column-scaled J^T J (policy fix).
+    #[arg(long, default_value_t = 1e8)]
+    pub cond_max: f64,
+    /// Ridge strength (policy ridge).
+    #[arg(long, default_value_t = 1.0)]
+    pub ridge_lambda: f64,
+    /// Do not fit the ODE time scales even when the log holds transients.
+    #[arg(long)]
+    pub no_dynamics: bool,
+    /// Withhold every K-th operating point from the fit and report its error (0: none).
+    #[arg(long, default_value_t = 0)]
+    pub withhold_every: usize,
+    /// Skip bad rows (each reported on stderr) instead of failing.
+    #[arg(long)]
+    pub lenient: bool,
+}
+
+/// Collinearity policy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Collinear {
+    /// Fix the weakest parameter while cond > cond_max.
+    Fix {
+        /// Threshold.
+        cond_max: f64,
+    },
+    /// Ridge toward the prior on the stiffness terms.
+    Ridge {
+        /// Strength.
+        lambda: f64,
+    },
+    /// Only report.
+    Report,
+}
+
+/// Configuration of an identification (the library face of the flags).
+#[derive(Debug, Clone)]
+pub struct Config {
+    /// Free parameter names (steady and dynamic).
+    pub free: Vec<String>,
+    /// Bounds overrides.
+    pub bounds: Vec<(String, f64, f64)>,
+    /// Settle rule.
+    pub settle: SettleRule,
+    /// LM starts.
+    pub starts: usize,
+    /// Bootstrap replicates.
+    pub bootstrap: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Collinearity policy.
+    pub collinear: Collinear,
+    /// Fit ODE time scales where possible.
+    pub dynamics: bool,
+    /// Withhold every K-th point (0: none).
+    pub withhold_every: usize,
+    /// Show a progress bar (only drawn on a terminal).
+    pub progress: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Config {
+            free: params::DEFAULT_FREE_STEADY
+                .iter()
+                .chain(params::DEFAULT_FREE_DYNAMIC)
+                .map(|s| s.to_string())
+                .collect(),
+            bounds: Vec::new(),
+            settle: SettleRule::TimeConstants(5.0),
+            starts: 8,
+            bootstrap: 200,
+            seed: 1,
+            collinear: Collinear::Fix { cond_max: 1e8 },
+            dynamics: true,
+            withhold_every: 0,
+            progress: false,
+        }
+    }
+}
+
+impl Config {
+    /// Build from the command-line flags.
+    pub fn from_args(a: &IdentifyArgs) -> Result<Config> {
+        let mut c = Config::default();
+        if let Some(f) = &a.free {
+            c.free = f
+                .iter()
+                .map(|s| s.trim().to_string())
+                .filter(|s| !s.is_empty())
+                .collect();
+        }
+        for n in &a.fix {
+            let n = n.trim();
+            if params::def(n).is_none() {
+                bail!(
+                    "--fix {n}: unknown parameter (known: {})",
+                    params::known_names()
+                );
+            }
+            c.free.retain(|x| x != n);
+        }
+        for b in &a.bound {
+            let parsed = b.split_once('=').and_then(|(n, r)| {
+                let (lo, hi) = r.split_once(':')?;
+                Some((
+                    n.trim().to_string(),
+                    lo.trim().parse().ok()?,
+                    hi.trim().parse().ok()?,
+                ))
+            });
+            match parsed {
+                Some((n, lo, hi)) if lo < hi => c.bounds.push((n, lo, hi)),
+                _ => bail!("--bound {b:?}: expected NAME=LO:HI with LO < HI"),
+            }
+        }
+        c.settle = match a.settle_s {
+            Some(s) if s >= 0.0 && s.is_finite() => SettleRule::Fixed(s),
+            Some(s) => bail!("--settle-s {s}: must be a finite number >= 0"),
+            None if a.settle_factor >= 0.0 && a.settle_factor.is_finite() => {
+                SettleRule::TimeConstants(a.settle_factor)
+            }
+            None => bail!("--settle-factor {}: must be >= 0", a.settle_factor),
+        };
+        c.starts = a.starts.max(1);
+        c.bootstrap = a.bootstrap;
+        c.seed = a.seed;
+        c.collinear = match a.collinear.as_str() {
+            "fix" => Collinear::Fix {
+                cond_max: a.cond_max,
+            },
+            "ridge" => Collinear::Ridge {
+                lambda: a.ridge_lambda,
+            },
+            "report" => Collinear::Report,
+            o => bail!("--collinear {o}: expected fix, ridge or report"),
+        };
+        c.dynamics = !a.no_dynamics;
+        c.withhold_every = a.withhold_every;
+        c.progress = true;
+        Ok(c)
+    }
+
+    pub(super) fn resolve(&self) -> Result<(Vec<Free>, Vec<Free>)> {
+        let mut st = Vec::new();
+        let mut dy = Vec::new();
+        for n in &self.free {
+            let mut f = Free::new(n).ok_or_else(|| {
+                anyhow::anyhow!(
+                    "--free {n}: unknown parameter (known: {})",
+                    params::known_names()
+                )
+            })?;
+            if let Some((_, lo, hi)) = self.bounds.iter().find(|b| &b.0 == n) {
+                f.lo = *lo;
+                f.hi = *hi;
+            }
+            let list = if f.def.group == Group::Steady {
+                &mut st
+            } else {
+                &mut dy
+            };
+            if !list.iter().any(|x: &Free| x.name() == f.name()) {
+                list.push(f);
+            }
+        }
+        for (n, _, _) in &self.bounds {
+            if params::def(n).is_none() {
+                bail!(
+                    "--bound {n}: unknown parameter (known: {})",
+                    params::known_names()
+                );
+            }
+        }
+        Ok((st, dy))
+    }
+}
