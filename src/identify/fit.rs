@@ -7,11 +7,17 @@
 //! theta = transform(u) ([`super::params::Transform`]), which keeps every parameter inside its
 //! bounds; covariance and CIs are computed in theta, from a central-difference Jacobian at the
 //! optimum, scaled by the reduced chi^2 (so they stay honest when the weights are off).
+//!
+//! The model side of every residual is the *observed* steady map
+//! ([`magswarm_model::effects::observed_steady`]): the map (5)-(7) with every effect the model
+//! has switched on, as the camera reads it at the session time of the measurement. A prior
+//! with drift or camera effects is thus fitted with those effects acting (held at their
+//! values unless freed); with no effects the observed map is the physical one, bit for bit.
 
 use super::data::OpPoint;
 use super::params::{self, Free, Transform};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use magswarm_model::{hz_to_rad_s, steady, Model};
+use magswarm_model::{effects, hz_to_rad_s, steady, Model};
 use nalgebra::{storage::Owned, DMatrix, DVector, Dyn, SymmetricEigen};
 use rand::{RngExt, SeedableRng};
 
@@ -24,11 +30,44 @@ pub struct Ridge {
     pub terms: Vec<Option<(f64, f64)>>,
 }
 
-/// Steady prediction at one point [mm], with a large finite value where the model breaks.
+/// Steady prediction at one point [mm] as observed at session time 0, with a large finite
+/// value where the model breaks (see [`predict_point_at`]).
 pub fn predict_point(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
-    let sp = steady::evaluate(m, z_mm * 1e-3, hz_to_rad_s(f_hz));
+    predict_point_at(m, z_mm, f_hz, 0.0)
+}
+
+/// Steady prediction at one point [mm] as observed at session time `t_s` [s]: the observed
+/// steady map, so drift (which depends on session time) and camera terms act as they do on a
+/// measurement; a large finite value where the model breaks (keeps LM's residuals finite).
+pub fn predict_point_at(m: &Model, z_mm: f64, f_hz: f64, t_s: f64) -> [f64; 2] {
+    let sp = effects::observed_steady(m, z_mm * 1e-3, hz_to_rad_s(f_hz), t_s);
+    finite([sp.r1, sp.r2])
+}
+
+/// Prediction of an operating point's mean [mm]: the observed steady map averaged over the
+/// session times of the settled rows pooled into the point (drift makes rows of one point
+/// taken at different times differ). Without observation effects, or without recorded times,
+/// it is the prediction at t = 0, which then does not depend on time.
+pub fn predict_mean(m: &Model, p: &OpPoint) -> [f64; 2] {
+    if !m.effects.observes() || p.t_s.is_empty() {
+        return predict_point(m, p.z_mm, p.f_hz);
+    }
+    // observed_steady at each row time, with the physical map evaluated once per point.
+    let sp = steady::evaluate(m, p.z_mm * 1e-3, hz_to_rad_s(p.f_hz));
+    let mut sum = [0.0; 2];
+    for &t in &p.t_s {
+        let o = m.effects.observe_steady(&sp, t);
+        sum[0] += o.r1;
+        sum[1] += o.r2;
+    }
+    let n = p.t_s.len() as f64;
+    finite([sum[0] / n, sum[1] / n])
+}
+
+/// Large finite stand-ins for non-finite radii.
+fn finite(r: [f64; 2]) -> [f64; 2] {
     let ok = |v: f64| if v.is_finite() { v } else { 1e6 };
-    [ok(sp.r1), ok(sp.r2)]
+    [ok(r[0]), ok(r[1])]
 }
 
 /// The LM problem on a subset (with repetition) of the points.
@@ -84,7 +123,7 @@ impl<'a> SteadyProblem<'a> {
         let mut out = DVector::zeros(self.n_res());
         for (k, &i) in self.idx.iter().enumerate() {
             let p = &self.points[i];
-            let r = predict_point(m, p.z_mm, p.f_hz);
+            let r = predict_mean(m, p);
             out[2 * k] = (r[0] - p.mean[0]) / p.se[0];
             out[2 * k + 1] = (r[1] - p.mean[1]) / p.se[1];
         }
@@ -254,7 +293,7 @@ pub struct Covariance {
 pub fn data_residuals(m: &Model, points: &[OpPoint]) -> Vec<f64> {
     let mut v = Vec::with_capacity(2 * points.len());
     for p in points {
-        let r = predict_point(m, p.z_mm, p.f_hz);
+        let r = predict_mean(m, p);
         v.push((r[0] - p.mean[0]) / p.se[0]);
         v.push((r[1] - p.mean[1]) / p.se[1]);
     }

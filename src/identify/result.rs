@@ -165,9 +165,7 @@ pub struct Predictions {
 impl Predictions {
     pub(super) fn of(m: &Model, points: &[OpPoint], withheld: &[OpPoint]) -> Predictions {
         let r = |ps: &[OpPoint]| -> Vec<[f64; 2]> {
-            ps.iter()
-                .map(|p| fit::predict_point(m, p.z_mm, p.f_hz))
-                .collect()
+            ps.iter().map(|p| fit::predict_mean(m, p)).collect()
         };
         Predictions {
             points: r(points),
@@ -185,10 +183,7 @@ impl Predictions {
 
 /// Error figures of `m` on `points`.
 pub fn errors(m: &Model, points: &[OpPoint]) -> Errors {
-    let pred: Vec<[f64; 2]> = points
-        .iter()
-        .map(|p| fit::predict_point(m, p.z_mm, p.f_hz))
-        .collect();
+    let pred: Vec<[f64; 2]> = points.iter().map(|p| fit::predict_mean(m, p)).collect();
     errors_of(&pred, points)
 }
 

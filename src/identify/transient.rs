@@ -44,7 +44,7 @@ pub(super) fn transient_signal(m: &Model, trans: &[dynfit::TransientSession], sd
         };
         for &(i, _) in &s.targets {
             let inp = s.inputs[i];
-            let r = fit::predict_point(m, inp.z_mm, inp.f_hz);
+            let r = fit::predict_point_at(m, inp.z_mm, inp.f_hz, inp.t);
             for a in 0..2 {
                 ss += ((pred[i][a] - r[a]) / sd[a]).powi(2);
                 n += 1;
