@@ -38,7 +38,8 @@ mod result;
 mod steady_fit;
 mod transient;
 
-pub use config::{Collinear, Config, IdentifyArgs};
+pub use crate::cli::IdentifyArgs;
+pub use config::{Collinear, Config};
 pub use result::{
     errors, AutoFix, Counts, DynFit, Errors, Estimate, Identification, Predictions, SteadyFit,
     TracePoint,
