@@ -186,7 +186,9 @@ pub fn fmt_g(v: f64) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::heatmap::edges;
     use super::*;
+    use std::path::Path;
 
     fn png_ok(p: &Path) {
         let b = std::fs::read(p).unwrap();
