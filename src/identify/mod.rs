@@ -37,6 +37,7 @@ pub mod report;
 mod result;
 mod steady_fit;
 mod transient;
+mod uncertainty;
 
 pub use crate::cli::IdentifyArgs;
 pub use config::{Collinear, Config};
