@@ -86,11 +86,7 @@ struct DynProblem<'a> {
 
 impl DynProblem<'_> {
     fn theta(&self) -> Vec<f64> {
-        self.free
-            .iter()
-            .zip(self.u.iter())
-            .map(|(f, &u)| f.to_theta(u))
-            .collect()
+        params::thetas(self.free, self.u.as_slice())
     }
 }
 
@@ -101,9 +97,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for DynProblem<'_> {
 
     fn set_params(&mut self, u: &DVector<f64>) {
         self.u.copy_from(u);
-        for (f, &ui) in self.free.iter().zip(u.iter()) {
-            params::set(&mut self.model, f.name(), f.to_theta(ui));
-        }
+        params::set_from_u(&mut self.model, self.free, u.as_slice());
     }
     fn params(&self) -> DVector<f64> {
         self.u.clone()
@@ -118,12 +112,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for DynProblem<'_> {
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let base = residuals(&self.model, self.data, self.sd);
         let theta = self.theta();
-        let chain: Vec<f64> = self
-            .free
-            .iter()
-            .zip(self.u.iter())
-            .map(|(f, &u)| f.dtheta_du(u))
-            .collect();
+        let chain = params::dthetas_du(self.free, self.u.as_slice());
         let mut m = self.model.clone();
         Some(optim::forward_jacobian(
             &base,

@@ -105,11 +105,7 @@ impl<'a> SteadyProblem<'a> {
     }
 
     fn theta(&self) -> Vec<f64> {
-        self.free
-            .iter()
-            .zip(self.u.iter())
-            .map(|(f, &u)| f.to_theta(u))
-            .collect()
+        params::thetas(self.free, self.u.as_slice())
     }
 
     fn n_res(&self) -> usize {
@@ -154,9 +150,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for SteadyProblem<'_> {
 
     fn set_params(&mut self, u: &DVector<f64>) {
         self.u.copy_from(u);
-        for (f, &ui) in self.free.iter().zip(u.iter()) {
-            params::set(&mut self.model, f.name(), f.to_theta(ui));
-        }
+        params::set_from_u(&mut self.model, self.free, u.as_slice());
     }
 
     fn params(&self) -> DVector<f64> {
@@ -177,12 +171,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for SteadyProblem<'_> {
             .zip(&theta)
             .map(|(f, &t)| f.fd_step(t))
             .collect();
-        let chain: Vec<f64> = self
-            .free
-            .iter()
-            .zip(self.u.iter())
-            .map(|(f, &u)| f.dtheta_du(u))
-            .collect();
+        let chain = params::dthetas_du(self.free, self.u.as_slice());
         let mut m = self.model.clone();
         let mut th = theta.clone();
         Some(optim::forward_jacobian(
