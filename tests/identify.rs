@@ -511,3 +511,51 @@ fn a_prior_with_drift_and_camera_effects_is_fitted_through_the_observed_map() {
         );
     }
 }
+
+#[test]
+fn drift_and_camera_offset_are_fitted_with_the_steady_map_when_freed() {
+    use magswarm::model::effects::{CameraBias, ParticleDrift};
+    let mut truth = common::perturbed_truth();
+    truth.effects.particle_drift = Some(ParticleDrift { rate_per_h: -0.4 });
+    truth.effects.camera_bias = Some(CameraBias {
+        offset_mm: 0.25,
+        ..CameraBias::NEUTRAL
+    });
+    let log = observed_log(&truth);
+    // Prior: the paper model with both effects switched on at their neutral values.
+    let mut prior = Model::paper();
+    prior.effects.particle_drift = Some(ParticleDrift { rate_per_h: 0.0 });
+    prior.effects.camera_bias = Some(CameraBias::NEUTRAL);
+    let mut free = Config::default().free;
+    free.extend(["particle_drift.rate_per_h", "camera_bias.offset_mm"].map(String::from));
+    let cfg = Config {
+        free,
+        bootstrap: 0,
+        ..Config::default()
+    };
+    assert!(identify::fits_steady(
+        params::def("particle_drift.rate_per_h").unwrap().group
+    ));
+    assert!(!identify::fits_steady(
+        params::def("formation_lag.tau_s").unwrap().group
+    ));
+    let id = identify::identify(&[log], &prior, &cfg).unwrap();
+    let names: Vec<&str> = id
+        .steady
+        .estimates
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
+    assert!(names.contains(&"particle_drift.rate_per_h"), "{names:?}");
+    assert!(names.contains(&"camera_bias.offset_mm"), "{names:?}");
+    for e in &id.steady.estimates {
+        let t = params::get(&truth, &e.name);
+        println!("{}: fitted {}, truth {t}", e.name, e.value);
+        assert!(
+            (e.value - t).abs() <= 2e-3 * t.abs().max(0.1),
+            "{}: fitted {} vs truth {t}",
+            e.name,
+            e.value
+        );
+    }
+}

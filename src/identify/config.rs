@@ -145,7 +145,7 @@ impl Config {
                 f.lo = *lo;
                 f.hi = *hi;
             }
-            let list = if f.def.group == Group::Steady {
+            let list = if fits_steady(f.def.group) {
                 &mut st
             } else {
                 &mut dy
@@ -163,5 +163,18 @@ impl Config {
             }
         }
         Ok((st, dy))
+    }
+}
+
+/// Whether `identify` fits a parameter of this group to the settled point means rather than
+/// to the transient rows: the steady map's own parameters, and the parameters of every effect
+/// that the observed steady map sees (the fit goes through `effects::observed_steady`). Only
+/// `formation_lag` shapes transients alone (no change at steady state), so its parameters go
+/// to the ODE fit with the time scales.
+pub fn fits_steady(group: Group) -> bool {
+    match group {
+        Group::Steady => true,
+        Group::Effect(effect) => effect != "formation_lag",
+        _ => false,
     }
 }

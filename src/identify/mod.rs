@@ -8,7 +8,10 @@
 //!    weights from the repeat variance (shrunk toward the pooled variance).
 //! 2. [`fit`]: bounded Levenberg-Marquardt on the free steady-map parameters (default
 //!    [`params::DEFAULT_FREE_STEADY`]; `--free` / `--fix` / `--bound` change it), from several
-//!    starts; Jacobian covariance scaled by the reduced chi^2; t-based 95 % CIs.
+//!    starts; Jacobian covariance scaled by the reduced chi^2; t-based 95 % CIs. The model
+//!    side is the observed steady map: the prior's effects act (drift at each row's session
+//!    time, camera terms on the reading), and freed parameters of effects that act at steady
+//!    state are fitted here ([`fits_steady`]).
 //! 3. Collinearity: the correlation matrix and the condition number of the column-scaled
 //!    J^T J are always reported. Policy `--collinear fix` (default): while the condition
 //!    number exceeds `--cond-max`, the parameter with the largest weight in the weakest
@@ -40,7 +43,7 @@ mod transient;
 mod uncertainty;
 
 pub use crate::cli::IdentifyArgs;
-pub use config::{Collinear, Config};
+pub use config::{fits_steady, Collinear, Config};
 pub use result::{
     errors, AutoFix, Counts, DynFit, Errors, Estimate, Identification, Predictions, SteadyFit,
     TracePoint,
