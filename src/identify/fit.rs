@@ -1,7 +1,7 @@
 //! The steady-map fit: weighted least squares on the operating-point means by a bounded
 //! Levenberg-Marquardt (crate `levenberg-marquardt`), with several starts. The Jacobian
 //! covariance, the collinearity diagnostics and the bootstrap over operating points are in
-//! [`super::uncertainty`] (re-exported here).
+//! `identify/uncertainty.rs` (re-exported here).
 //!
 //! Residuals are `(model - mean) / se` per point and axis, `se` from the repeat variance
 //! ([`super::data::assign_weights`]). LM runs on unconstrained variables u with

@@ -15,7 +15,7 @@
 //! registered once as the `sans-serif` family, so plots look the same on every machine and no
 //! system font is needed.
 //!
-//! Modules: [`colour`] (palette and colour maps), `frame` (backend, axes, legend: what every
+//! Modules: `colour` (palette and colour maps), `frame` (backend, axes, legend: what every
 //! plot shares), `xy` (line, panel, error-bar and predicted-vs-measured plots), `heatmap`.
 
 mod colour;
