@@ -121,6 +121,19 @@ pub fn write(id: &Identification, dir: &Path) -> Result<()> {
         id.prior.name,
         id.elapsed.as_secs_f64()
     );
+    let effects = id.model.effects.enabled();
+    if !effects.is_empty() {
+        // Without this line a reader cannot tell that the fitted values are conditional on
+        // the effects (a drift or camera bias absorbed by the base parameters otherwise).
+        let _ = writeln!(
+            w,
+            "Effects switched on in the model: {}. The fit compares the measurements with the \
+             observed steady map (every effect acting, drift at each row's session time, \
+             camera terms on the reading); effect parameters not freed keep the prior's \
+             values.\n",
+            effects.join(", ")
+        );
+    }
     let c = &id.counts;
     let _ = writeln!(w, "## Data\n");
     let _ = writeln!(
