@@ -3,53 +3,8 @@
 use anyhow::Context;
 use magswarm_model::Model;
 
+pub use crate::cli::{InverseArgs, LinFormat, LinearizeArgs};
 use crate::control::{inverse, linearize};
-
-/// Arguments of `magswarm inverse`.
-#[derive(Debug, clap::Args)]
-pub struct InverseArgs {
-    /// Target r1 [mm].
-    #[arg(long)]
-    pub r1: f64,
-    /// Target r2 [mm].
-    #[arg(long)]
-    pub r2: f64,
-    /// Model JSON (default: the built-in paper model).
-    #[arg(long)]
-    pub model: Option<std::path::PathBuf>,
-    /// Print JSON instead of text.
-    #[arg(long)]
-    pub json: bool,
-}
-
-/// Output format of `magswarm linearize`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
-pub enum LinFormat {
-    /// JSON with the matrices, operating point, names and units.
-    #[default]
-    Json,
-    /// A MATLAB script (`A = [..]; ... sys = ss(A,B,C,D);`).
-    Matlab,
-    /// A python-control script (`sys = control.ss(A, B, C, D)`).
-    Python,
-}
-
-/// Arguments of `magswarm linearize`.
-#[derive(Debug, clap::Args)]
-pub struct LinearizeArgs {
-    /// Operating point z_m [mm].
-    #[arg(long)]
-    pub z: f64,
-    /// Operating point f [Hz].
-    #[arg(long)]
-    pub f: f64,
-    /// Model JSON (default: the built-in paper model).
-    #[arg(long)]
-    pub model: Option<std::path::PathBuf>,
-    /// Output format.
-    #[arg(long, value_enum, default_value_t = LinFormat::Json)]
-    pub format: LinFormat,
-}
 
 fn load_model(path: &Option<std::path::PathBuf>) -> anyhow::Result<Model> {
     match path {

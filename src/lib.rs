@@ -11,11 +11,13 @@ pub use magswarm_control as control;
 pub use magswarm_log as log;
 pub use magswarm_model as model;
 
+pub mod cli;
 pub mod control_cli;
 pub mod cosim;
 pub mod diagnose;
 pub mod identify;
 pub mod lab;
+pub mod optim;
 pub mod outputs;
 pub mod packaging;
 pub mod paper;

@@ -19,25 +19,11 @@
 //! values move to `r1_meas_mm`, `r2_meas_mm`; `r1_ss_mm`, `r2_ss_mm` carry the steady map at
 //! the row's inputs (what the swarm would settle to).
 
+pub use crate::cli::PredictArgs;
 use crate::log::{Column, Log, LogRow, LogWriter};
 use anyhow::{Context, Result};
 use magswarm_model::{hz_to_rad_s, Model, Plant};
 use std::collections::HashMap;
-use std::path::PathBuf;
-
-/// Arguments of `magswarm predict`.
-#[derive(Debug, clap::Args)]
-pub struct PredictArgs {
-    /// Model JSON (default: the built-in paper model).
-    #[arg(long)]
-    pub model: Option<PathBuf>,
-    /// Input log (CONTRACTS.md format; needs t_s, z_m_mm, f_hz).
-    #[arg(long)]
-    pub log: PathBuf,
-    /// Output log with predicted r1_mm, r2_mm.
-    #[arg(long)]
-    pub out: PathBuf,
-}
 
 /// One input sample of a replay.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -415,3 +415,147 @@ fn invalid_rows_are_kept_but_not_fitted() {
     let back = Log::from_str_named(&text, "x").unwrap();
     assert_eq!(back.rows.iter().filter(|r| !r.valid).count(), 10);
 }
+
+/// A noise-free log of the seed's design in a shuffled visiting order (so session time, and
+/// with it drift, is not confounded with z_m or f), the radii replayed through `truth` with
+/// every effect it has switched on (drift with session time, camera bias on the reading).
+fn observed_log(truth: &Model) -> Log {
+    use rand::seq::SliceRandom;
+    use rand::SeedableRng;
+    let mut spec = Spec::seed_like(truth.clone(), 0);
+    spec.points
+        .shuffle(&mut rand::rngs::StdRng::seed_from_u64(17));
+    let inputs: Vec<magswarm::predict::InputRow> = common::schedule(&spec)
+        .into_iter()
+        .map(|(t, z_mm, f_hz)| magswarm::predict::InputRow { t, z_mm, f_hz })
+        .collect();
+    let radii = magswarm::predict::replay(truth, &inputs, 1e-9).unwrap();
+    let mut w = magswarm::log::LogWriter::new(
+        Vec::new(),
+        magswarm::log::Layout::standard(true, false, false, false),
+    )
+    .unwrap();
+    for (i, r) in inputs.iter().zip(radii) {
+        w.write_row(&magswarm::log::LogRow::new(i.t, i.z_mm, i.f_hz, Some(r)))
+            .unwrap();
+    }
+    let text = String::from_utf8(w.into_inner().unwrap()).unwrap();
+    Log::from_str_named(&text, "observed.csv").unwrap()
+}
+
+#[test]
+fn a_prior_with_drift_and_camera_effects_is_fitted_through_the_observed_map() {
+    use magswarm::model::effects::{CameraBias, ParticleDrift};
+    let effects = magswarm::model::Effects {
+        particle_drift: Some(ParticleDrift { rate_per_h: -0.4 }),
+        camera_bias: Some(CameraBias {
+            scale: 1.06,
+            offset_mm: 0.25,
+            tilt_deg: 12.0,
+        }),
+        ..Default::default()
+    };
+    let mut truth = common::perturbed_truth();
+    truth.effects = effects;
+    let log = observed_log(&truth);
+    // The session lasts about half an hour: the drift is a real part of the signal.
+    let t_end = log.rows.last().unwrap().t_s;
+    assert!(t_end > 1500.0, "{t_end}");
+    let cfg = Config {
+        bootstrap: 0,
+        ..Config::default()
+    };
+    // Prior: the paper's base parameters (away from the truth) with the effects as they are.
+    let mut prior = Model::paper();
+    prior.effects = effects;
+    let id = identify::identify(std::slice::from_ref(&log), &prior, &cfg).unwrap();
+    assert!(
+        id.steady.auto_fixed.is_empty(),
+        "{:?}",
+        id.steady.auto_fixed
+    );
+    assert_eq!(id.steady.estimates.len(), 8);
+    for e in &id.steady.estimates {
+        let t = params::get(&truth, &e.name);
+        let p = params::get(&prior, &e.name);
+        println!("{}: prior {p}, fitted {}, truth {t}", e.name, e.value);
+        assert!(
+            (e.value - t).abs() <= 1e-3 * t.abs().max(0.1),
+            "{}: fitted {} vs truth {t} (prior {p})",
+            e.name,
+            e.value
+        );
+    }
+    assert_eq!(
+        id.model.effects, effects,
+        "effects are kept as in the prior"
+    );
+    // Fitted through the observed map, the noise-free means are reproduced.
+    assert!(
+        id.train.rmse[0] < 1e-3 && id.train.rmse[1] < 1e-3,
+        "{:?}",
+        id.train
+    );
+
+    // The same log with the effects switched off cannot be fitted as well: the camera and
+    // the drift over the session are not in the physical map.
+    let off = identify::identify(&[log], &Model::paper(), &cfg).unwrap();
+    println!("effects on: {:?}\neffects off: {:?}", id.train, off.train);
+    for a in 0..2 {
+        assert!(
+            off.train.rmse[a] > 0.05 && off.train.rmse[a] > 50.0 * id.train.rmse[a],
+            "r{}: RMSE {} with effects off vs {} with them",
+            a + 1,
+            off.train.rmse[a],
+            id.train.rmse[a]
+        );
+    }
+}
+
+#[test]
+fn drift_and_camera_offset_are_fitted_with_the_steady_map_when_freed() {
+    use magswarm::model::effects::{CameraBias, ParticleDrift};
+    let mut truth = common::perturbed_truth();
+    truth.effects.particle_drift = Some(ParticleDrift { rate_per_h: -0.4 });
+    truth.effects.camera_bias = Some(CameraBias {
+        offset_mm: 0.25,
+        ..CameraBias::NEUTRAL
+    });
+    let log = observed_log(&truth);
+    // Prior: the paper model with both effects switched on at their neutral values.
+    let mut prior = Model::paper();
+    prior.effects.particle_drift = Some(ParticleDrift { rate_per_h: 0.0 });
+    prior.effects.camera_bias = Some(CameraBias::NEUTRAL);
+    let mut free = Config::default().free;
+    free.extend(["particle_drift.rate_per_h", "camera_bias.offset_mm"].map(String::from));
+    let cfg = Config {
+        free,
+        bootstrap: 0,
+        ..Config::default()
+    };
+    assert!(identify::fits_steady(
+        params::def("particle_drift.rate_per_h").unwrap().group
+    ));
+    assert!(!identify::fits_steady(
+        params::def("formation_lag.tau_s").unwrap().group
+    ));
+    let id = identify::identify(&[log], &prior, &cfg).unwrap();
+    let names: Vec<&str> = id
+        .steady
+        .estimates
+        .iter()
+        .map(|e| e.name.as_str())
+        .collect();
+    assert!(names.contains(&"particle_drift.rate_per_h"), "{names:?}");
+    assert!(names.contains(&"camera_bias.offset_mm"), "{names:?}");
+    for e in &id.steady.estimates {
+        let t = params::get(&truth, &e.name);
+        println!("{}: fitted {}, truth {t}", e.name, e.value);
+        assert!(
+            (e.value - t).abs() <= 2e-3 * t.abs().max(0.1),
+            "{}: fitted {} vs truth {t}",
+            e.name,
+            e.value
+        );
+    }
+}

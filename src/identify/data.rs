@@ -78,6 +78,9 @@ pub struct OpPoint {
     pub se: [f64; 2],
     /// The settled samples [mm].
     pub samples: Vec<[f64; 2]>,
+    /// Session time [s] of each sample (same order; empty when not known, e.g. a point built
+    /// by [`point_stats`] alone): drift effects make the observed radii depend on it.
+    pub t_s: Vec<f64>,
 }
 
 /// Same inputs to 1e-6 mm / 1e-6 Hz.
@@ -210,16 +213,17 @@ pub fn median_mad(x: &[f64]) -> (f64, f64) {
 
 /// Pool the settled rows into operating points (sorted by z, then f).
 pub fn op_points(sessions: &[Session]) -> Vec<OpPoint> {
-    /// z, f, samples, (session, visit) pairs seen.
-    type Acc = (f64, f64, Vec<[f64; 2]>, Vec<(usize, usize)>);
+    /// z, f, samples, (session, visit) pairs seen, session times of the samples.
+    type Acc = (f64, f64, Vec<[f64; 2]>, Vec<(usize, usize)>, Vec<f64>);
     let mut acc: BTreeMap<(i64, i64), Acc> = BTreeMap::new();
     for (si, s) in sessions.iter().enumerate() {
         for r in &s.rows {
             if let (Some(v), true) = (r.r, r.settled) {
                 let e = acc
                     .entry(key(r.z_mm, r.f_hz))
-                    .or_insert_with(|| (r.z_mm, r.f_hz, Vec::new(), Vec::new()));
+                    .or_insert_with(|| (r.z_mm, r.f_hz, Vec::new(), Vec::new(), Vec::new()));
                 e.2.push(v);
+                e.4.push(r.t);
                 if !e.3.contains(&(si, r.visit)) {
                     e.3.push((si, r.visit));
                 }
@@ -227,7 +231,10 @@ pub fn op_points(sessions: &[Session]) -> Vec<OpPoint> {
         }
     }
     acc.into_values()
-        .map(|(z, f, samples, visits)| point_stats(z, f, samples, visits.len()))
+        .map(|(z, f, samples, visits, t_s)| OpPoint {
+            t_s,
+            ..point_stats(z, f, samples, visits.len())
+        })
         .collect()
 }
 
@@ -255,6 +262,7 @@ pub fn point_stats(z_mm: f64, f_hz: f64, samples: Vec<[f64; 2]>, visits: usize) 
         mad,
         se: [f64::NAN; 2],
         samples,
+        t_s: Vec::new(),
     }
 }
 

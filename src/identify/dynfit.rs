@@ -11,6 +11,7 @@
 use super::data::Session;
 use super::fit::{self, Covariance, Run};
 use super::params::{self, Free};
+use crate::optim;
 use crate::predict::{replay, InputRow};
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use magswarm_model::Model;
@@ -70,6 +71,11 @@ pub fn residuals(model: &Model, data: &[TransientSession], sd: [f64; 2]) -> Vec<
     v
 }
 
+/// Finite-difference steps of the time-scale parameters: relative, 1e-4.
+fn fd_steps(theta: &[f64]) -> Vec<f64> {
+    theta.iter().map(|t| 1e-4 * t.abs().max(1e-6)).collect()
+}
+
 struct DynProblem<'a> {
     model: Model,
     free: &'a [Free],
@@ -80,11 +86,7 @@ struct DynProblem<'a> {
 
 impl DynProblem<'_> {
     fn theta(&self) -> Vec<f64> {
-        self.free
-            .iter()
-            .zip(self.u.iter())
-            .map(|(f, &u)| f.to_theta(u))
-            .collect()
+        params::thetas(self.free, self.u.as_slice())
     }
 }
 
@@ -95,9 +97,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for DynProblem<'_> {
 
     fn set_params(&mut self, u: &DVector<f64>) {
         self.u.copy_from(u);
-        for (f, &ui) in self.free.iter().zip(u.iter()) {
-            params::set(&mut self.model, f.name(), f.to_theta(ui));
-        }
+        params::set_from_u(&mut self.model, self.free, u.as_slice());
     }
     fn params(&self) -> DVector<f64> {
         self.u.clone()
@@ -112,19 +112,20 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for DynProblem<'_> {
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let base = residuals(&self.model, self.data, self.sd);
         let theta = self.theta();
-        let mut j = DMatrix::zeros(base.len(), theta.len());
+        let chain = params::dthetas_du(self.free, self.u.as_slice());
         let mut m = self.model.clone();
-        for (c, f) in self.free.iter().enumerate() {
-            let h = 1e-4 * theta[c].abs().max(1e-6);
-            params::set(&mut m, f.name(), theta[c] + h);
-            let r = residuals(&m, self.data, self.sd);
-            params::set(&mut m, f.name(), theta[c]);
-            let d = f.dtheta_du(self.u[c]);
-            for i in 0..base.len() {
-                j[(i, c)] = (r[i] - base[i]) / h * d;
-            }
-        }
-        Some(j)
+        Some(optim::forward_jacobian(
+            &base,
+            &theta,
+            &fd_steps(&theta),
+            &chain,
+            |c, v| {
+                params::set(&mut m, self.free[c].name(), v);
+                let r = residuals(&m, self.data, self.sd);
+                params::set(&mut m, self.free[c].name(), theta[c]);
+                r
+            },
+        ))
     }
 }
 
@@ -158,19 +159,13 @@ pub fn fit(
     let base = residuals(&fitted, data, sd);
     let cost = base.iter().map(|r| r * r).sum();
     // Central-difference Jacobian in theta for the covariance.
-    let mut jac = DMatrix::zeros(base.len(), free.len());
     let mut m = fitted.clone();
-    for (c, f) in free.iter().enumerate() {
-        let h = 1e-4 * theta[c].abs().max(1e-6);
-        params::set(&mut m, f.name(), theta[c] + h);
-        let rp = residuals(&m, data, sd);
-        params::set(&mut m, f.name(), theta[c] - h);
-        let rm = residuals(&m, data, sd);
-        params::set(&mut m, f.name(), theta[c]);
-        for i in 0..base.len() {
-            jac[(i, c)] = (rp[i] - rm[i]) / (2.0 * h);
-        }
-    }
+    let jac = optim::central_jacobian(base.len(), &theta, &fd_steps(&theta), |c, v| {
+        params::set(&mut m, free[c].name(), v);
+        let r = residuals(&m, data, sd);
+        params::set(&mut m, free[c].name(), theta[c]);
+        r
+    });
     let cov = fit::diagnostics(jac, &base, None);
     let run = Run {
         u: prob.u.clone(),

@@ -92,6 +92,23 @@ pub fn set(m: &mut Model, name: &str, v: f64) {
     (row(name).set)(m, v)
 }
 
+/// The parameters theta of the free set at LM's unconstrained variables u.
+pub fn thetas(free: &[Free], u: &[f64]) -> Vec<f64> {
+    free.iter().zip(u).map(|(f, &u)| f.to_theta(u)).collect()
+}
+
+/// d theta / d u of the free set at u (the chain rule from theta to LM's variables).
+pub fn dthetas_du(free: &[Free], u: &[f64]) -> Vec<f64> {
+    free.iter().zip(u).map(|(f, &u)| f.dtheta_du(u)).collect()
+}
+
+/// Put the free set's parameters at u into `m`.
+pub fn set_from_u(m: &mut Model, free: &[Free], u: &[f64]) {
+    for (f, &ui) in free.iter().zip(u) {
+        set(m, f.name(), f.to_theta(ui));
+    }
+}
+
 /// A free parameter with its (possibly overridden) bounds.
 #[derive(Debug, Clone, Copy)]
 pub struct Free {

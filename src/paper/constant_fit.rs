@@ -1,4 +1,4 @@
-//! The best *constant*-gain ODE (4) (issue 2, item 4).
+//! The best *constant*-gain ODE (4): how far the seed's constant confinement gains are from the map.
 //!
 //! ODE (4) as the seed writes it has constant confinement gains K_b1, K_b2. Its equilibrium
 //! cannot follow the map (5) everywhere: the map scales as S^-alpha_i while the confinement of

@@ -5,7 +5,6 @@
 //!
 //! Variables: inputs `u1`, `u2` (value references 0, 1), outputs `x1`, `x2` (2, 3).
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -70,18 +69,15 @@ pub fn build(dir: &Path) -> Result<PathBuf> {
     }
     let binary = std::fs::read(&so).with_context(|| format!("cannot read {}", so.display()))?;
     let fmu = dir.join(format!("{MODEL_IDENTIFIER}.fmu"));
-    let file =
-        std::fs::File::create(&fmu).with_context(|| format!("cannot write {}", fmu.display()))?;
-    let mut zip = zip::ZipWriter::new(file);
-    let opts = zip::write::SimpleFileOptions::default()
-        .compression_method(zip::CompressionMethod::Deflated);
-    zip.start_file("modelDescription.xml", opts)?;
-    zip.write_all(model_description().as_bytes())?;
-    zip.start_file(format!("binaries/linux64/{MODEL_IDENTIFIER}.so"), opts)?;
-    zip.write_all(&binary)?;
-    zip.start_file("sources/euler2.c", opts)?;
-    zip.write_all(SOURCE.as_bytes())?;
-    zip.finish()
-        .with_context(|| format!("cannot finish {}", fmu.display()))?;
+    // The same archive layout as MagSwarm.fmu (crate magswarm-packaging), plus the C source.
+    use magswarm_packaging::archive::{fmu_zip, Entry};
+    let xml = model_description();
+    let bytes = fmu_zip(&[
+        Entry::model_description(&xml),
+        Entry::binary(MODEL_IDENTIFIER, &binary),
+        Entry::file("sources/euler2.c", SOURCE.as_bytes()),
+    ])
+    .with_context(|| format!("cannot package {}", fmu.display()))?;
+    std::fs::write(&fmu, bytes).with_context(|| format!("cannot write {}", fmu.display()))?;
     Ok(fmu)
 }

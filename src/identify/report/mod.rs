@@ -1,14 +1,16 @@
 //! The identification report: `DIR/report.md` and its PNG figures, and the short summary
-//! printed on stderr.
+//! printed on stderr. Rendered from the [`Identification`] as computed (its predictions
+//! included); nothing is refitted or re-predicted here except the smooth Phi(f) curve.
 
-use super::data::{self, OpPoint};
-use super::fit::predict_point;
+use super::data;
 use super::{params, Collinear, Estimate, Identification};
-use crate::plot::{self, ErrorBar, ErrorSeries, Heatmap, Labels, Panel, Series};
+use crate::plot;
 use anyhow::{Context, Result};
-use magswarm_model::{hz_to_rad_s, steady};
 use std::fmt::Write as _;
 use std::path::Path;
+
+mod plots;
+use plots::plots;
 
 fn g(v: f64) -> String {
     plot::fmt_g(v)
@@ -119,6 +121,19 @@ pub fn write(id: &Identification, dir: &Path) -> Result<()> {
         id.prior.name,
         id.elapsed.as_secs_f64()
     );
+    let effects = id.model.effects.enabled();
+    if !effects.is_empty() {
+        // Without this line a reader cannot tell that the fitted values are conditional on
+        // the effects (a drift or camera bias absorbed by the base parameters otherwise).
+        let _ = writeln!(
+            w,
+            "Effects switched on in the model: {}. The fit compares the measurements with the \
+             observed steady map (every effect acting, drift at each row's session time, \
+             camera terms on the reading); effect parameters not freed keep the prior's \
+             values.\n",
+            effects.join(", ")
+        );
+    }
     let c = &id.counts;
     let _ = writeln!(w, "## Data\n");
     let _ = writeln!(
@@ -381,204 +396,4 @@ pub fn write(id: &Identification, dir: &Path) -> Result<()> {
     std::fs::write(dir.join("report.md"), md)
         .with_context(|| format!("cannot write {}", dir.join("report.md").display()))?;
     Ok(())
-}
-
-fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, String)>> {
-    let m = &id.model;
-    let mut out = Vec::new();
-    // Predicted vs measured.
-    let pv = |pts: &[OpPoint], a: usize| -> Vec<(f64, f64)> {
-        pts.iter()
-            .map(|p| (p.mean[a], predict_point(m, p.z_mm, p.f_hz)[a]))
-            .collect()
-    };
-    let mut series = vec![
-        Series::points("r1 (fitted points)", pv(&id.points, 0)),
-        Series::points("r2 (fitted points)", pv(&id.points, 1)),
-    ];
-    if !id.withheld.is_empty() {
-        series.push(
-            Series::new("r1 (withheld)", pv(&id.withheld, 0), plot::Style::Points)
-                .with_color(plot::PALETTE[2]),
-        );
-        series.push(
-            Series::new("r2 (withheld)", pv(&id.withheld, 1), plot::Style::Points)
-                .with_color(plot::PALETTE[3]),
-        );
-    }
-    plot::pred_vs_meas(
-        &dir.join("pred_vs_meas.png"),
-        &Labels {
-            title: "Predicted vs measured radii (point means)",
-            x: "measured [mm]",
-            y: "predicted [mm]",
-        },
-        &series,
-    )?;
-    out.push((
-        "pred_vs_meas.png".into(),
-        "Predicted against measured point means".into(),
-    ));
-
-    // Residual maps over (z_m, f).
-    let all: Vec<&OpPoint> = id.points.iter().chain(&id.withheld).collect();
-    let mut zs: Vec<f64> = all.iter().map(|p| p.z_mm).collect();
-    let mut fs: Vec<f64> = all.iter().map(|p| p.f_hz).collect();
-    for v in [&mut zs, &mut fs] {
-        v.sort_by(|a, b| a.total_cmp(b));
-        v.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
-    }
-    if zs.len() >= 2 && fs.len() >= 2 && zs.len() * fs.len() <= 40_000 {
-        let marks: Vec<(f64, f64)> = id.withheld.iter().map(|p| (p.z_mm, p.f_hz)).collect();
-        for a in 0..2 {
-            let mut vals = vec![vec![f64::NAN; zs.len()]; fs.len()];
-            let mut vmax: f64 = 0.0;
-            for p in &all {
-                let i = zs
-                    .iter()
-                    .position(|z| (z - p.z_mm).abs() < 1e-6)
-                    .unwrap_or(0);
-                let j = fs
-                    .iter()
-                    .position(|f| (f - p.f_hz).abs() < 1e-6)
-                    .unwrap_or(0);
-                let r = predict_point(m, p.z_mm, p.f_hz)[a] - p.mean[a];
-                vals[j][i] = r;
-                vmax = vmax.max(r.abs());
-            }
-            let name = format!("residual_r{}.png", a + 1);
-            let title = format!("Residual r{} (model - measured mean) over (z_m, f)", a + 1);
-            plot::heatmap_diverging(
-                &dir.join(&name),
-                &Labels {
-                    title: &title,
-                    x: "z_m [mm]",
-                    y: "f [Hz]",
-                },
-                &Heatmap {
-                    xs: &zs,
-                    ys: &fs,
-                    values: &vals,
-                    colorbar_label: "residual [mm]",
-                    marks: &marks,
-                    marks_label: if marks.is_empty() { "" } else { "withheld" },
-                    range: Some((-vmax.max(1e-9), vmax.max(1e-9))),
-                },
-            )?;
-            out.push((name, format!("Residual map of r{} over (z_m, f)", a + 1)));
-        }
-    }
-
-    // Collapse plot (Fig. 5): y_i = r_i S_i^alpha_i / C_i against f, median +- MAD per bin.
-    let s = &m.steady;
-    let edges: Vec<f64> = if fs.len() <= 15 {
-        fs.clone()
-    } else {
-        let (lo, hi) = (fs[0], fs[fs.len() - 1]);
-        (0..10)
-            .map(|k| lo + (hi - lo) * (k as f64 + 0.5) / 10.0)
-            .collect()
-    };
-    let mut bins: Vec<[Vec<f64>; 2]> = vec![[Vec::new(), Vec::new()]; edges.len()];
-    for p in &id.points {
-        let sp = steady::evaluate(m, p.z_mm * 1e-3, hz_to_rad_s(p.f_hz));
-        let b = edges
-            .iter()
-            .enumerate()
-            .min_by(|x, y| (x.1 - p.f_hz).abs().total_cmp(&(y.1 - p.f_hz).abs()))
-            .map(|x| x.0)
-            .unwrap_or(0);
-        for smp in &p.samples {
-            bins[b][0].push(smp[0] * sp.s_x.powf(s.alpha_1) / s.C_1);
-            bins[b][1].push(smp[1] * sp.s_y.powf(s.alpha_2) / s.C_2);
-        }
-    }
-    let width = if edges.len() > 1 {
-        (edges[edges.len() - 1] - edges[0]) / (edges.len() - 1) as f64
-    } else {
-        1.0
-    };
-    let es: Vec<ErrorSeries> = (0..2)
-        .map(|a| ErrorSeries {
-            name: format!("r{} (median +- MAD)", a + 1),
-            points: edges
-                .iter()
-                .zip(&bins)
-                .filter(|(_, b)| !b[a].is_empty())
-                .map(|(&f, b)| {
-                    let (med, mad) = data::median_mad(&b[a]);
-                    ErrorBar {
-                        x: f + (a as f64 - 0.5) * 0.12 * width,
-                        y: med,
-                        lo: med - mad,
-                        hi: med + mad,
-                    }
-                })
-                .collect(),
-            color: None,
-        })
-        .collect();
-    let (f0, f1) = (
-        fs[0].min(edges[0]),
-        fs[fs.len() - 1].max(edges[edges.len() - 1]),
-    );
-    let phi: Vec<(f64, f64)> = (0..=200)
-        .map(|k| {
-            let f = f0 + (f1 - f0) * k as f64 / 200.0;
-            (f, steady::phi(m, hz_to_rad_s(f)))
-        })
-        .collect();
-    plot::scatter_with_errorbars(
-        &dir.join("collapse.png"),
-        &Labels {
-            title: "Collapse (Fig. 5): y_i = r_i S_i^alpha_i / C_i against Phi(f)",
-            x: "f [Hz]",
-            y: "y_i [-]",
-        },
-        &es,
-        &[Series::line("Phi(f) fitted", phi).with_color(plot::RGBColor(0, 0, 0))],
-    )?;
-    out.push((
-        "collapse.png".into(),
-        "Collapsed radii per frequency bin (median +- MAD) against the fitted Phi".into(),
-    ));
-
-    // Transients: the session with the most transient rows, measured vs replayed.
-    if id.dynamics.is_some() {
-        if let Some(fig) = transient_plot(id, dir)? {
-            out.push(fig);
-        }
-    }
-    Ok(out)
-}
-
-fn transient_plot(id: &Identification, dir: &Path) -> Result<Option<(String, String)>> {
-    let Some(tr) = &id.trace else {
-        return Ok(None);
-    };
-    let panels: Vec<Panel> = (0..2)
-        .map(|a| Panel {
-            y_label: format!("r{} [mm]", a + 1),
-            series: vec![
-                Series::points(
-                    "measured",
-                    tr.iter().filter_map(|x| x.2.map(|r| (x.0, r[a]))).collect(),
-                ),
-                Series::line(
-                    "replayed (fitted model)",
-                    tr.iter().map(|x| (x.0, x.1[a])).collect(),
-                ),
-            ],
-        })
-        .collect();
-    plot::time_panels(
-        &dir.join("transients.png"),
-        "Transients: measured and replayed",
-        "t [s]",
-        &panels,
-    )?;
-    Ok(Some((
-        "transients.png".into(),
-        "Measured radii and the fitted model's replay around the largest input change".into(),
-    )))
 }

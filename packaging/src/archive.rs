@@ -1,0 +1,154 @@
+//! The FMI 2.0 archive layout: a zip with `modelDescription.xml` at the root, the shared
+//! library under `binaries/<platform>/<modelIdentifier>.so` (executable), data under
+//! `resources/` and a page under `documentation/`. Both FMUs are written through
+//! [`fmu_zip`], so the layout and the compression settings are decided once.
+
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+
+/// Platform folder inside the FMU (FMI 2.0 name for 64-bit Linux).
+pub const PLATFORM: &str = "linux64";
+
+/// One file of an archive.
+pub struct Entry<'a> {
+    /// Path inside the zip, `/`-separated.
+    pub name: String,
+    pub data: &'a [u8],
+    /// Unix mode 0755 instead of the default (the shared library must be loadable as is after
+    /// an importer unpacks the archive).
+    pub executable: bool,
+}
+
+impl<'a> Entry<'a> {
+    /// A plain (non-executable) file.
+    pub fn file(name: impl Into<String>, data: &'a [u8]) -> Self {
+        Entry {
+            name: name.into(),
+            data,
+            executable: false,
+        }
+    }
+
+    /// `modelDescription.xml` at the root of the archive.
+    pub fn model_description(xml: &'a str) -> Self {
+        Self::file("modelDescription.xml", xml.as_bytes())
+    }
+
+    /// The compiled library as `binaries/linux64/<model_identifier>.so`.
+    pub fn binary(model_identifier: &str, so: &'a [u8]) -> Self {
+        Entry {
+            name: format!("binaries/{PLATFORM}/{model_identifier}.so"),
+            data: so,
+            executable: true,
+        }
+    }
+
+    /// `resources/<name>`: what the FMU reads at instantiation (fmi2Instantiate's resource
+    /// location points at this folder).
+    pub fn resource(name: &str, data: &'a [u8]) -> Self {
+        Self::file(format!("resources/{name}"), data)
+    }
+
+    /// `documentation/index.html`, the page FMI tools show for the model.
+    pub fn documentation(html: &'a str) -> Self {
+        Self::file("documentation/index.html", html.as_bytes())
+    }
+}
+
+/// The archive bytes of `entries`, in the given order, deflated.
+pub fn fmu_zip(entries: &[Entry<'_>]) -> Result<Vec<u8>> {
+    let mut buf = std::io::Cursor::new(Vec::new());
+    {
+        let mut zip = zip::ZipWriter::new(&mut buf);
+        let deflate = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated);
+        let exec = deflate.unix_permissions(0o755);
+        for e in entries {
+            let opts = if e.executable { exec } else { deflate };
+            zip.start_file(e.name.as_str(), opts)
+                .with_context(|| format!("zip entry {}", e.name))?;
+            zip.write_all(e.data)
+                .with_context(|| format!("zip entry {}", e.name))?;
+        }
+        zip.finish().context("cannot finish the FMU zip")?;
+    }
+    Ok(buf.into_inner())
+}
+
+/// Read the shared library to package, refusing anything that is not an ELF file (a wrong
+/// `--lib` would otherwise give an archive that every importer rejects later, far from here).
+pub fn read_shared_library(lib: &Path) -> Result<Vec<u8>> {
+    let so = std::fs::read(lib).with_context(|| format!("cannot read {}", lib.display()))?;
+    if so.len() < 4 || &so[..4] != b"\x7fELF" {
+        bail!("{} is not an ELF shared library", lib.display());
+    }
+    Ok(so)
+}
+
+/// Write a file via a temporary sibling and a rename, creating parent folders, so an
+/// interrupted run never leaves a truncated archive where an importer would find it.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let tmp = path.with_extension("tmp-magswarm");
+    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Read;
+
+    #[test]
+    fn archive_has_the_fmi_layout_and_an_executable_binary() {
+        let so = b"\x7fELF fake";
+        let bytes = fmu_zip(&[
+            Entry::model_description("<fmiModelDescription/>"),
+            Entry::binary("Demo", so),
+            Entry::resource("model.json", b"{}"),
+            Entry::documentation("<html/>"),
+        ])
+        .unwrap();
+        let mut z = zip::ZipArchive::new(std::io::Cursor::new(bytes)).unwrap();
+        let names: Vec<String> = z.file_names().map(|n| n.unwrap().into_owned()).collect();
+        assert_eq!(names.len(), 4);
+        for n in [
+            "modelDescription.xml",
+            "binaries/linux64/Demo.so",
+            "resources/model.json",
+            "documentation/index.html",
+        ] {
+            assert!(names.iter().any(|m| m == n), "{n} missing from {names:?}");
+        }
+        let mut bin = z.by_name("binaries/linux64/Demo.so").unwrap();
+        assert_eq!(bin.unix_mode().map(|m| m & 0o777), Some(0o755));
+        let mut data = Vec::new();
+        bin.read_to_end(&mut data).unwrap();
+        assert_eq!(data, so);
+        drop(bin);
+        let xml = z.by_name("modelDescription.xml").unwrap();
+        assert_ne!(xml.unix_mode().map(|m| m & 0o111), Some(0o111));
+    }
+
+    #[test]
+    fn non_elf_library_is_refused_with_its_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("lib.so");
+        std::fs::write(&p, b"not a library").unwrap();
+        let e = read_shared_library(&p).unwrap_err().to_string();
+        assert!(e.contains("not an ELF") && e.contains("lib.so"), "{e}");
+    }
+
+    #[test]
+    fn write_atomic_creates_folders_and_leaves_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a/b/X.fmu");
+        write_atomic(&p, b"zip").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"zip");
+        assert!(!p.with_extension("tmp-magswarm").exists());
+    }
+}

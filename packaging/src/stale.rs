@@ -1,0 +1,74 @@
+//! The staleness check: is the library about to be packaged the one this build was made from?
+//!
+//! The CLI links the plant's variable table as an rlib (for the documentation page and the
+//! GUID); the `.so` carries its own copy. If the two disagree the library is stale (built from
+//! other sources), and the archive would pass here but fail the GUID check of every importer,
+//! so packaging stops with the command that fixes it.
+
+use std::path::Path;
+
+use anyhow::{bail, Result};
+
+/// Value of attribute `name` in an XML fragment (first occurrence).
+pub fn attr(xml: &str, name: &str) -> Option<String> {
+    let key = format!(" {name}=\"");
+    let s = xml.find(&key)? + key.len();
+    let e = xml[s..].find('"')?;
+    Some(xml[s..s + e].to_string())
+}
+
+/// The GUID of the plant FMU as this build computes it from its variable table.
+pub fn plant_guid() -> String {
+    magswarm_fmi2::guid::<magswarm_fmu::MagSwarm>()
+}
+
+/// Fail unless the plant XML that `lib` produced carries this build's GUID.
+pub fn check_plant_library(lib: &Path, xml: &str) -> Result<String> {
+    let guid = plant_guid();
+    if !xml.contains(&format!("guid=\"{guid}\"")) {
+        bail!(
+            "{} was built from other sources than this magswarm binary (GUID differs); \
+             rebuild both with `cargo build --release --workspace`",
+            lib.display()
+        );
+    }
+    Ok(guid)
+}
+
+/// Fail unless the XML that `lib` produced declares `model_identifier` (a library of another
+/// FMU passed as `--lib`).
+pub fn check_model_identifier(lib: &Path, xml: &str, model_identifier: &str) -> Result<()> {
+    if !xml.contains(&format!("modelIdentifier=\"{model_identifier}\"")) {
+        bail!("{} is not the {model_identifier} library", lib.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plant_xml_with_another_guid_is_stale() {
+        let lib = Path::new("/x/libmagswarm_fmu.so");
+        let good = format!("<fmiModelDescription guid=\"{}\">", plant_guid());
+        assert_eq!(check_plant_library(lib, &good).unwrap(), plant_guid());
+        let e = check_plant_library(lib, "<fmiModelDescription guid=\"{0}\">")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("GUID differs") && e.contains("/x/libmagswarm_fmu.so"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn model_identifier_and_attributes() {
+        let xml = r#"<CoSimulation modelIdentifier="MagSwarmPID" canGetAndSetFMUstate="true"/>"#;
+        let lib = Path::new("l.so");
+        assert!(check_model_identifier(lib, xml, "MagSwarmPID").is_ok());
+        assert!(check_model_identifier(lib, xml, "MagSwarm").is_err());
+        assert_eq!(attr(xml, "canGetAndSetFMUstate").as_deref(), Some("true"));
+        assert_eq!(attr(xml, "guid"), None);
+    }
+}

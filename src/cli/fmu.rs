@@ -1,0 +1,34 @@
+//! Arguments of `magswarm fmu` (run by [`crate::packaging::run`]; the archives are built by
+//! the workspace crate `magswarm-packaging`).
+
+use std::path::PathBuf;
+
+/// Arguments of `magswarm fmu`.
+#[derive(Debug, clap::Args)]
+pub struct FmuArgs {
+    /// Model JSON to bake into resources/ as the FMU's default model (default: paper model).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Output path of the FMU [default: target/fmu/MagSwarm.fmu, with --pid
+    /// target/fmu/MagSwarmPID.fmu].
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// The compiled shared library to package (default: build it with cargo, or take
+    /// libmagswarm_fmu.so beside this executable).
+    #[arg(long)]
+    pub lib: Option<PathBuf>,
+    /// Do not run cargo; package the library found beside this executable.
+    #[arg(long)]
+    pub no_build: bool,
+    /// Only write modelDescription.xml to this path (no build, no zip).
+    #[arg(long, value_name = "PATH")]
+    pub xml: Option<PathBuf>,
+    /// Package the controller FMU MagSwarmPID.fmu instead (crate magswarm-pid-fmu; default
+    /// --out target/fmu/MagSwarmPID.fmu; --model is the plant model the controller assumes,
+    /// --lib the controller's libmagswarm_pid_fmu.so).
+    #[arg(long)]
+    pub pid: bool,
+    /// With --pid: controller configuration JSON (magswarm-pid/1) baked into resources/pid.json.
+    #[arg(long, value_name = "CFG.json", requires = "pid")]
+    pub pid_config: Option<PathBuf>,
+}
