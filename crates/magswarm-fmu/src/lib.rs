@@ -11,13 +11,13 @@
 use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 
-use magswarm_fmi2::bytes::{ByteReader, PutBytes};
 use magswarm_fmi2::units;
 use magswarm_fmi2::{
     Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo, Start,
     UnitDefinition, Variable, XmlOptions,
 };
-use magswarm_model::{Confinement, Model, Plant};
+use magswarm_model::{Confinement, Model, Plant, PlantSnapshot};
+use serde::{Deserialize, Serialize};
 
 /// Model identifier (file name of the shared library and of the FMU).
 pub const MODEL_IDENTIFIER: &str = "MagSwarm";
@@ -320,6 +320,32 @@ pub struct MagSwarm {
     plant: Option<Plant>,
     /// Inputs currently outside the envelope (one warning per excursion).
     outside: bool,
+}
+
+/// The serialized FMU state of [`MagSwarm`]: everything that changes while it runs (the
+/// defaults read from `resources/` are the instance's and stay out). The shell encodes it;
+/// [`MagSwarm::restore_state`](FmuModel::restore_state) validates it like set values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagSwarmState {
+    /// Parameters in force.
+    pub model: Model,
+    /// Value of the `model_file` parameter.
+    pub model_file: String,
+    /// Input z_m [m].
+    pub z_m: f64,
+    /// Input omega_m [rad/s].
+    pub omega: f64,
+    /// Parameter `settle_at_start`.
+    pub settle_at_start: bool,
+    /// Parameters `r1_start`, `r2_start` [m].
+    pub r_start: [f64; 2],
+    /// Tolerance from `fmi2SetupExperiment`.
+    pub rtol: Option<f64>,
+    /// Inputs outside the envelope (warned once per excursion).
+    pub outside: bool,
+    /// The plant, once built (its state, time and integrator memory).
+    pub plant: Option<PlantSnapshot>,
 }
 
 impl MagSwarm {
@@ -736,62 +762,39 @@ impl FmuModel for MagSwarm {
         }
     }
 
-    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
-        let json = serde_json::to_string(&self.model)
-            .map_err(|e| Fmi2Err::error(format!("serialize model: {e}")))?;
-        out.put_str(&json);
-        out.put_str(&self.model_file);
-        out.put_f64(self.z_m);
-        out.put_f64(self.omega);
-        out.put_bool(self.settle_at_start);
-        out.put_f64(self.r_start[0]);
-        out.put_f64(self.r_start[1]);
-        out.put_bool(self.rtol.is_some());
-        out.put_f64(self.rtol.unwrap_or(0.0));
-        out.put_bool(self.outside);
-        match &self.plant {
-            None => out.put_bool(false),
-            Some(p) => {
-                out.put_bool(true);
-                let snap = serde_json::to_string(&p.snapshot())
-                    .map_err(|e| Fmi2Err::error(format!("serialize plant: {e}")))?;
-                out.put_str(&snap);
-            }
-        }
-        Ok(())
+    type State = MagSwarmState;
+
+    fn save_state(&self) -> Result<MagSwarmState, Fmi2Err> {
+        Ok(MagSwarmState {
+            model: self.model.clone(),
+            model_file: self.model_file.clone(),
+            z_m: self.z_m,
+            omega: self.omega,
+            settle_at_start: self.settle_at_start,
+            r_start: self.r_start,
+            rtol: self.rtol,
+            outside: self.outside,
+            plant: self.plant.as_ref().map(Plant::snapshot),
+        })
     }
 
-    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
-        let mut rd = ByteReader::new(bytes);
-        let json = rd.str()?;
-        let model = Model::from_json_str(json, "FMU state")
-            .map_err(|e| Fmi2Err::error(format!("deserialize: {e}")))?;
-        let model_file = rd.str()?.to_string();
-        let z_m = rd.f64()?;
-        let omega = rd.f64()?;
-        let settle = rd.bool()?;
-        let r_start = [rd.f64()?, rd.f64()?];
-        let has_rtol = rd.bool()?;
-        let rtol = rd.f64()?;
-        let outside = rd.bool()?;
-        let plant = if rd.bool()? {
-            let snap: magswarm_model::PlantSnapshot = serde_json::from_str(rd.str()?)
-                .map_err(|e| Fmi2Err::error(format!("deserialize: plant state: {e}")))?;
-            Some(Plant::from_snapshot(model.clone(), &snap))
-        } else {
-            None
-        };
-        rd.finish()?;
+    fn restore_state(&mut self, s: MagSwarmState) -> Result<(), Fmi2Err> {
+        s.model
+            .validate()
+            .map_err(|e| Fmi2Err::error(format!("FMU state: model: {e}")))?;
         let mut candidate = self.clone();
-        candidate.model = model;
-        candidate.model_file = model_file;
-        candidate.z_m = z_m;
-        candidate.omega = omega;
-        candidate.settle_at_start = settle;
-        candidate.r_start = r_start;
-        candidate.rtol = has_rtol.then_some(rtol);
-        candidate.outside = outside;
-        candidate.plant = plant;
+        candidate.plant = s
+            .plant
+            .as_ref()
+            .map(|snap| Plant::from_snapshot(s.model.clone(), snap));
+        candidate.model = s.model;
+        candidate.model_file = s.model_file;
+        candidate.z_m = s.z_m;
+        candidate.omega = s.omega;
+        candidate.settle_at_start = s.settle_at_start;
+        candidate.r_start = s.r_start;
+        candidate.rtol = s.rtol;
+        candidate.outside = s.outside;
         candidate.validate_restored()?;
         *self = candidate;
         Ok(())
