@@ -100,6 +100,7 @@
 //! FMU must be built with `panic = "unwind"`, which the workspace profile sets).
 
 #![warn(missing_docs)]
+#![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod abi;
 pub mod export;

@@ -8,6 +8,10 @@
 //! Units: SI on the interface (m, rad/s, T), as CONTRACTS.md fixes, with display units for
 //! people; the seed's own parameters keep the units of Table I (mm for C_i, Hz for f_ref).
 
+// The fmi2* forwarders that `export_fmi2!` expands here are unsafe fns: every unsafe call
+// in them has its own block and SAFETY comment.
+#![deny(unsafe_op_in_unsafe_fn)]
+
 use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 

@@ -70,6 +70,10 @@
 //! length), which the generic shell encodes and checks; restoring rebuilds the controller and
 //! restores that state, bit-identically. In-memory states (`fmi2GetFMUstate`) are plain clones.
 
+// The fmi2* forwarders that `export_fmi2!` expands here are unsafe fns: every unsafe call
+// in them has its own block and SAFETY comment.
+#![deny(unsafe_op_in_unsafe_fn)]
+
 use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 
@@ -505,7 +509,7 @@ fn load_config(path: &Path) -> Result<PidConfig, Fmi2Err> {
 /// The first number in `v` whose magnitude exceeds `max` (or that is not finite).
 fn first_absurd_number(v: &serde_json::Value, max: f64) -> Option<f64> {
     match v {
-        serde_json::Value::Number(n) => n.as_f64().filter(|x| !(x.abs() <= max)),
+        serde_json::Value::Number(n) => n.as_f64().filter(|x| x.is_nan() || x.abs() > max),
         serde_json::Value::Array(a) => a.iter().find_map(|x| first_absurd_number(x, max)),
         serde_json::Value::Object(o) => o.values().find_map(|x| first_absurd_number(x, max)),
         _ => None,
