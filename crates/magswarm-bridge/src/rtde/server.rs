@@ -53,6 +53,19 @@ pub struct RobotRecord {
     pub heartbeats: u64,
     /// Times the watchdog stopped the program.
     pub watchdog_stops: u32,
+    /// The last time the watchdog fired: the heartbeat gap it saw then, and the gap at the
+    /// check before (which did not fire) [s]. So a test can see that it fired at its first
+    /// check past the period, however late the checks ran on a loaded machine.
+    pub watchdog_fired: Option<WatchdogFiring>,
+}
+
+/// Heartbeat gaps around a watchdog stop (see [`RobotRecord::watchdog_fired`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WatchdogFiring {
+    /// Gap since the last heartbeat when the watchdog fired [s] (> the period).
+    pub gap_s: f64,
+    /// Gap at the previous check [s] (<= the period, or it would have fired then).
+    pub previous_gap_s: f64,
 }
 
 struct Sim {
@@ -69,6 +82,8 @@ struct Sim {
     rate: f64,
     watchdog_hz: f64,
     last_heartbeat: Option<Instant>,
+    /// Heartbeat gap at the watchdog's last check that did not fire [s].
+    last_watchdog_gap_s: f64,
     first_start: Option<Instant>,
     registers: HashMap<String, Value>,
     writers: HashMap<String, u64>,
@@ -118,9 +133,16 @@ impl Sim {
         if playing && self.watchdog_hz > 0.0 {
             let period = Duration::from_secs_f64(1.0 / self.watchdog_hz);
             if let Some(h) = self.last_heartbeat {
-                if now.duration_since(h) > period {
+                let gap = now.duration_since(h);
+                if gap > period {
                     self.runtime_state = runtime_state::STOPPED;
                     self.record.watchdog_stops += 1;
+                    self.record.watchdog_fired = Some(WatchdogFiring {
+                        gap_s: gap.as_secs_f64(),
+                        previous_gap_s: self.last_watchdog_gap_s,
+                    });
+                } else {
+                    self.last_watchdog_gap_s = gap.as_secs_f64();
                 }
             }
         }
@@ -292,6 +314,7 @@ impl UrEmulator {
             rate: cfg.z_rate_m_s,
             watchdog_hz: cfg.watchdog_hz,
             last_heartbeat: None,
+            last_watchdog_gap_s: 0.0,
             first_start: None,
             registers: HashMap::new(),
             writers: HashMap::new(),
@@ -351,13 +374,23 @@ impl UrEmulator {
             None => None,
         };
         {
-            // Physics at 500 Hz.
+            // Physics at 500 Hz, on the wall clock: each pass integrates the time that really
+            // passed (in steps of at most 2 ms), so the robot moves at its rate and its lag
+            // however late a loaded machine runs this thread.
             let (sim, stop, down) = (sim.clone(), stop.clone(), link_down.clone());
             threads.push(std::thread::spawn(move || {
                 let dt = 0.002;
+                let mut last = Instant::now();
                 while !stop.load(Ordering::SeqCst) {
                     if let Ok(mut s) = sim.lock() {
-                        s.tick(dt);
+                        let now = Instant::now();
+                        let mut left = now.duration_since(last).as_secs_f64();
+                        last = now;
+                        while left > 0.0 {
+                            let h = left.min(dt);
+                            s.tick(h);
+                            left -= h;
+                        }
                         if let (Some(t), Some(d)) = (s.first_start, s.cfg.drop_link_after_s) {
                             if t.elapsed().as_secs_f64() >= d {
                                 down.store(true, Ordering::SeqCst);
