@@ -224,3 +224,29 @@ fn dashboard_and_script_upload() {
     let z = emu.tool_z();
     assert!(z <= 0.42 + 1e-9 && z > 0.419, "tool z {z}");
 }
+
+#[test]
+fn recipe_ids_run_out_with_a_refusal_and_the_connection_keeps_working() {
+    let emu = UrEmulator::start("127.0.0.1", 0, None, None, sim(true)).unwrap();
+    let mut c = RtdeClient::connect("127.0.0.1", emu.rtde.port(), Duration::from_secs(2)).unwrap();
+    c.negotiate_protocol_version().unwrap();
+    // Output ids 1..=255, input ids 100..=255 (the emulator's numbering): one more of each
+    // is refused with id 0, and so is every later one (never wrapped to an id in use).
+    for k in 1..=255u8 {
+        let r = c.setup_outputs(125.0, &["timestamp"]).unwrap();
+        assert_eq!(r.id, k);
+    }
+    for _ in 0..2 {
+        let e = c.setup_outputs(125.0, &["timestamp"]).unwrap_err();
+        assert!(e.to_string().contains("refused (id 0)"), "{e}");
+    }
+    for k in 100..=255u8 {
+        let r = c.setup_inputs(&["input_int_register_24"]).unwrap();
+        assert_eq!(r.id, k);
+    }
+    for _ in 0..2 {
+        let e = c.setup_inputs(&["input_int_register_24"]).unwrap_err();
+        assert!(e.to_string().contains("refused (id 0)"), "{e}");
+    }
+    assert_eq!(c.controller_version().unwrap().major, 5, "still answering");
+}
