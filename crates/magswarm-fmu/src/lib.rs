@@ -336,13 +336,13 @@ pub struct MagSwarmState {
     pub model: Model,
     /// Value of the `model_file` parameter.
     pub model_file: String,
-    /// Input z_m [m].
+    /// Input z_m \[m\].
     pub z_m: f64,
-    /// Input omega_m [rad/s].
+    /// Input omega_m \[rad/s\].
     pub omega: f64,
     /// Parameter `settle_at_start`.
     pub settle_at_start: bool,
-    /// Parameters `r1_start`, `r2_start` [m].
+    /// Parameters `r1_start`, `r2_start` \[m\].
     pub r_start: [f64; 2],
     /// Tolerance from `fmi2SetupExperiment`.
     pub rtol: Option<f64>,

@@ -536,13 +536,13 @@ pub struct MagSwarmPidState {
     pub feedforward: Option<bool>,
     /// Boolean `conditional_integration`, if set.
     pub conditional_integration: Option<bool>,
-    /// Parameters `z_start` [m], `omega_start` [rad/s].
+    /// Parameters `z_start` \[m\], `omega_start` \[rad/s\].
     pub start: [f64; 2],
-    /// Inputs `r1_ref`, `r2_ref` [m].
+    /// Inputs `r1_ref`, `r2_ref` \[m\].
     pub r_ref: [f64; 2],
-    /// Inputs `r1`, `r2` [m].
+    /// Inputs `r1`, `r2` \[m\].
     pub y: [f64; 2],
-    /// Start time of the experiment (sample 0) [s].
+    /// Start time of the experiment (sample 0) \[s\].
     pub t0: f64,
     /// The running controller (None before initialisation).
     pub running: Option<RunningState>,
@@ -558,13 +558,13 @@ pub struct RunningState {
     pub controller: ControllerSnapshot,
     /// Samples taken.
     pub k: u64,
-    /// Command outputs (z_m [m], omega_m [rad/s]).
+    /// Command outputs (z_m \[m\], omega_m \[rad/s\]).
     pub u: [f64; 2],
-    /// Goal outputs [m].
+    /// Goal outputs \[m\].
     pub goal: [f64; 2],
-    /// Distance from the setpoint to the goal [m].
+    /// Distance from the setpoint to the goal \[m\].
     pub distance: f64,
-    /// Setpoint the goal outputs belong to [mm] (NaN: none yet).
+    /// Setpoint the goal outputs belong to \[mm\] (NaN: none yet).
     pub goal_for: [f64; 2],
     /// Output `target_feasible`.
     pub feasible: bool,

@@ -54,7 +54,7 @@ pub struct RobotRecord {
     /// Times the watchdog stopped the program.
     pub watchdog_stops: u32,
     /// The last time the watchdog fired: the heartbeat gap it saw then, and the gap at the
-    /// check before (which did not fire) [s]. So a test can see that it fired at its first
+    /// check before (which did not fire), in seconds. So a test can see that it fired at its first
     /// check past the period, however late the checks ran on a loaded machine.
     pub watchdog_fired: Option<WatchdogFiring>,
 }
@@ -62,9 +62,9 @@ pub struct RobotRecord {
 /// Heartbeat gaps around a watchdog stop (see [`RobotRecord::watchdog_fired`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WatchdogFiring {
-    /// Gap since the last heartbeat when the watchdog fired [s] (> the period).
+    /// Gap since the last heartbeat when the watchdog fired, in seconds (> the period).
     pub gap_s: f64,
-    /// Gap at the previous check [s] (<= the period, or it would have fired then).
+    /// Gap at the previous check, in seconds (<= the period, or it would have fired then).
     pub previous_gap_s: f64,
 }
 
@@ -82,7 +82,7 @@ struct Sim {
     rate: f64,
     watchdog_hz: f64,
     last_heartbeat: Option<Instant>,
-    /// Heartbeat gap at the watchdog's last check that did not fire [s].
+    /// Heartbeat gap at the watchdog's last check that did not fire, in seconds.
     last_watchdog_gap_s: f64,
     first_start: Option<Instant>,
     registers: HashMap<String, Value>,
