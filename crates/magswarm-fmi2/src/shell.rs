@@ -1,5 +1,8 @@
 //! The FMI 2.0 Co-Simulation entry points as generic `unsafe fn`s over an [`FmuModel`].
 //!
+//! A long file that is one cohesive thing: one entry point per function of the standard, all
+//! with the same prologue, in the order of the standard's API.
+//!
 //! [`crate::export_fmi2!`] wraps each of these in a `#[no_mangle] extern "C"` function in
 //! the FMU's cdylib (generic functions cannot be exported directly). Each one:
 //!
