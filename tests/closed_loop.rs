@@ -1,4 +1,4 @@
-//! Issue 4 against the packaged FMUs: the Rust harness (`examples/pid_tracking.rs`, included
+//! Closed-loop PID tracking against the packaged FMUs: the Rust harness (`examples/pid_tracking.rs`, included
 //! below for its functions) drives `MagSwarm.fmu` built by this build's `magswarm fmu`, through
 //! the importer in `magswarm::cosim`; the controller FMU `MagSwarmPID.fmu` (`magswarm fmu --pid`)
 //! is checked against the in-process controller; the linearisation against the plant FMU's

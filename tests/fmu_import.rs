@@ -1,4 +1,4 @@
-//! MagSwarm.fmu loaded as an importer loads it (issue 3, "Show"): the packaged archive is
+//! MagSwarm.fmu loaded as an importer loads it (what an FMI 2.0 importer sees): the packaged archive is
 //! unzipped, modelDescription.xml parsed and the shared library called through the C ABI,
 //! with the `fmi` crate (import side) and `magswarm::cosim` (the same crate's raw bindings,
 //! for the logger, FMU state and directional derivatives). Value references always come from

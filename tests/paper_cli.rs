@@ -115,7 +115,7 @@ fn paper_json_reports_the_seed_figures() {
     );
     assert!(t0 > 0.05 && t1 < 20.0, "formation time {t0}..{t1} s");
 
-    // Constant gains cannot reproduce the map (issue 2, item 4): the best fits miss by far
+    // Constant gains cannot reproduce the map: the best fits miss by far
     // more than 1 %, and freeing K_tau and p does not make it worse.
     let kb = f(&v, "constant_fit.kb_only.max_rel_error");
     let full = f(&v, "constant_fit.full.max_rel_error");

@@ -2,7 +2,6 @@
 //! when the input is exactly 0.5. The shell catches the panic (the importer gets fmi2Error),
 //! and the driver's invariant "no panic inside the FMU" turns it into a fuzzer crash.
 
-use magswarm_fmi2::bytes::{ByteReader, PutBytes};
 use magswarm_fmi2::{Ctx, Fmi2Err, FmuModel, InstantiateArgs, ModelInfo, VarType, Variable};
 
 static VARIABLES: [Variable; 2] = [
@@ -61,15 +60,11 @@ impl FmuModel for Planted {
         }
         Ok(())
     }
-    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
-        out.put_f64(self.u);
-        out.put_f64(self.y);
-        Ok(())
+    type State = (f64, f64);
+    fn save_state(&self) -> Result<(f64, f64), Fmi2Err> {
+        Ok((self.u, self.y))
     }
-    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
-        let mut r = ByteReader::new(bytes);
-        let (u, y) = (r.f64()?, r.f64()?);
-        r.finish()?;
+    fn restore_state(&mut self, (u, y): (f64, f64)) -> Result<(), Fmi2Err> {
         (self.u, self.y) = (u, y);
         Ok(())
     }

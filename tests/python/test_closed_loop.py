@@ -1,4 +1,4 @@
-"""Issue 4: the closed loop (MagSwarm.fmu + the decoupled PID) from three masters agrees.
+"""The closed loop (MagSwarm.fmu + the decoupled PID) from three masters agrees.
 
 - the Rust harness (examples/pid_tracking.rs: controller in-process, plant through magswarm::cosim),
 - fmpy (examples/pid_tracking.py: plant and MagSwarmPID.fmu, Python as the sequential master),

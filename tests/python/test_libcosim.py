@@ -144,7 +144,7 @@ OSP = """<?xml version="1.0" encoding="UTF-8"?>
 
 @pytest.mark.parametrize("kind", ["ssp", "osp"])
 def test_system_file_runs_in_libcosim(kind, fmu_path, model_description, unzipdir, vr, tmp_path):
-    """The FMU loads from an SSP system structure and an OSP config, as issue 4's closed loop will."""
+    """The FMU loads from an SSP system structure and an OSP config, as the closed loop with the PID FMU does."""
     z, w = mm(13.5), hz(6.0)
     shutil.copy(fmu_path, tmp_path / "MagSwarm.fmu")
     text = (SSD if kind == "ssp" else OSP).format(z=z, w=w, h=STEP)

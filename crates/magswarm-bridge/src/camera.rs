@@ -146,10 +146,12 @@ pub fn emulated(
                 plant.set_time(t);
             }
         }
-        let r = plant.state();
+        // What a camera sees: the observed radii (formation mode, drift and camera bias of
+        // the model applied), not the ODE state.
+        let o = plant.outputs();
         SwarmState {
-            r1_mm: r[0],
-            r2_mm: r[1],
+            r1_mm: o.r1,
+            r2_mm: o.r2,
             omega_rad_s: w,
         }
     };

@@ -281,7 +281,9 @@ pub fn run_with_camera(
                     p.set_inputs(applied.0 * 1e-3, magswarm_model::hz_to_rad_s(applied.1));
                     let _ = p.step(dt);
                 }
-                sh = Some(p.state());
+                // The shadow is compared with the camera's radii: its observed outputs.
+                let o = p.outputs();
+                sh = Some([o.r1, o.r2]);
             }
             let mut row = LogRow::new(t, applied.0, applied.1, valid.then_some([r.r1_mm, r.r2_mm]));
             row.valid = valid;

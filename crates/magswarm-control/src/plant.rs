@@ -162,8 +162,12 @@ impl SwarmPlant for Plant {
         Inputs::new(z, w)
     }
 
+    /// The observed radii ([`Plant::outputs`]: formation mode, drift and camera bias of the
+    /// model applied), which is what a measurement of this plant reads; the ODE state is
+    /// the physical footprint behind it.
     fn measure(&mut self) -> Result<Reading, PlantError> {
-        Ok(Reading::new(self.time(), self.state()))
+        let o = self.outputs();
+        Ok(Reading::new(self.time(), [o.r1, o.r2]))
     }
 
     fn step(&mut self, u: Inputs, dt_s: f64) -> Result<Reading, PlantError> {
@@ -210,5 +214,37 @@ mod tests {
         assert_eq!(SwarmPlant::inputs(&p), u);
         let nan = SwarmPlant::step(&mut p, Inputs::new(f64::NAN, u.omega_m), 0.05);
         assert!(matches!(nan, Err(PlantError::InvalidInput(_))));
+    }
+
+    /// The simulated measurement is what a camera reads: with a camera offset switched on,
+    /// every reading (at rest and after steps) is the ODE state plus the offset.
+    #[test]
+    fn in_process_readings_are_the_observed_radii() {
+        let mut m = Model::paper();
+        m.effects.camera_bias = Some(magswarm_model::effects::CameraBias {
+            scale: 1.0,
+            offset_mm: 0.25,
+            tilt_deg: 0.0,
+        });
+        let mut p = Plant::new(m, 0.0085, hz_to_rad_s(4.0));
+        let r = SwarmPlant::measure(&mut p).unwrap();
+        let s = p.state();
+        assert!(
+            (r.r_mm[0] - s[0] - 0.25).abs() < 1e-12,
+            "{:?} vs {s:?}",
+            r.r_mm
+        );
+        assert!(
+            (r.r_mm[1] - s[1] - 0.25).abs() < 1e-12,
+            "{:?} vs {s:?}",
+            r.r_mm
+        );
+        let r = SwarmPlant::step(&mut p, Inputs::from_mm_hz(13.5, 6.0), 0.2).unwrap();
+        let s = p.state();
+        assert!(
+            (r.r_mm[0] - s[0] - 0.25).abs() < 1e-12,
+            "{:?} vs {s:?}",
+            r.r_mm
+        );
     }
 }

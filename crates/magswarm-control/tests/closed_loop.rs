@@ -1,5 +1,5 @@
 //! Closed loop of the decoupled PID against the in-process plant, the inverse map and the
-//! linearisation (issue 4). The FMU-driven harness has its own tests.
+//! linearisation (the seed's PID tracking scenario). The FMU-driven harness has its own tests.
 
 use magswarm_control::inverse::projected_gradient;
 use magswarm_control::{

@@ -52,7 +52,16 @@ macro_rules! export_fmi2 {
             nCategories: usize,
             categories: *const $crate::abi::Fmi2String,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_set_debug_logging::<$model>(c, loggingOn, nCategories, categories)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_set_debug_logging::<$model>(
+                    c,
+                    loggingOn,
+                    nCategories,
+                    categories,
+                )
+            }
         }
 
         /// FMI 2.0 `fmi2Instantiate`.
@@ -67,22 +76,28 @@ macro_rules! export_fmi2 {
             visible: $crate::abi::Fmi2Boolean,
             loggingOn: $crate::abi::Fmi2Boolean,
         ) -> $crate::abi::Fmi2Component {
-            $crate::shell::fmi2_instantiate::<$model>(
-                instanceName,
-                fmuType,
-                fmuGUID,
-                fmuResourceLocation,
-                functions,
-                visible,
-                loggingOn,
-            )
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_instantiate::<$model>(
+                    instanceName,
+                    fmuType,
+                    fmuGUID,
+                    fmuResourceLocation,
+                    functions,
+                    visible,
+                    loggingOn,
+                )
+            }
         }
 
         /// FMI 2.0 `fmi2FreeInstance`.
         #[no_mangle]
         #[allow(non_snake_case, clippy::missing_safety_doc)]
         pub unsafe extern "C" fn fmi2FreeInstance(c: $crate::abi::Fmi2Component) {
-            $crate::shell::fmi2_free_instance::<$model>(c)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_free_instance::<$model>(c) }
         }
 
         /// FMI 2.0 `fmi2SetupExperiment`.
@@ -96,14 +111,18 @@ macro_rules! export_fmi2 {
             stopTimeDefined: $crate::abi::Fmi2Boolean,
             stopTime: $crate::abi::Fmi2Real,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_setup_experiment::<$model>(
-                c,
-                toleranceDefined,
-                tolerance,
-                startTime,
-                stopTimeDefined,
-                stopTime,
-            )
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_setup_experiment::<$model>(
+                    c,
+                    toleranceDefined,
+                    tolerance,
+                    startTime,
+                    stopTimeDefined,
+                    stopTime,
+                )
+            }
         }
 
         /// FMI 2.0 `fmi2EnterInitializationMode`.
@@ -112,7 +131,9 @@ macro_rules! export_fmi2 {
         pub unsafe extern "C" fn fmi2EnterInitializationMode(
             c: $crate::abi::Fmi2Component,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_enter_initialization_mode::<$model>(c)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_enter_initialization_mode::<$model>(c) }
         }
 
         /// FMI 2.0 `fmi2ExitInitializationMode`.
@@ -121,7 +142,9 @@ macro_rules! export_fmi2 {
         pub unsafe extern "C" fn fmi2ExitInitializationMode(
             c: $crate::abi::Fmi2Component,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_exit_initialization_mode::<$model>(c)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_exit_initialization_mode::<$model>(c) }
         }
 
         /// FMI 2.0 `fmi2Terminate`.
@@ -130,7 +153,9 @@ macro_rules! export_fmi2 {
         pub unsafe extern "C" fn fmi2Terminate(
             c: $crate::abi::Fmi2Component,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_terminate::<$model>(c)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_terminate::<$model>(c) }
         }
 
         /// FMI 2.0 `fmi2Reset`.
@@ -139,7 +164,9 @@ macro_rules! export_fmi2 {
         pub unsafe extern "C" fn fmi2Reset(
             c: $crate::abi::Fmi2Component,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_reset::<$model>(c)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_reset::<$model>(c) }
         }
 
         /// FMI 2.0 `fmi2GetReal`.
@@ -151,7 +178,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *mut $crate::abi::Fmi2Real,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_real::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_real::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2GetInteger`.
@@ -163,7 +192,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *mut $crate::abi::Fmi2Integer,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_integer::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_integer::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2GetBoolean`.
@@ -175,7 +206,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *mut $crate::abi::Fmi2Boolean,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_boolean::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_boolean::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2GetString`.
@@ -187,7 +220,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *mut $crate::abi::Fmi2String,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_string::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_string::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2SetReal`.
@@ -199,7 +234,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *const $crate::abi::Fmi2Real,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_set_real::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_set_real::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2SetInteger`.
@@ -211,7 +248,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *const $crate::abi::Fmi2Integer,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_set_integer::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_set_integer::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2SetBoolean`.
@@ -223,7 +262,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *const $crate::abi::Fmi2Boolean,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_set_boolean::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_set_boolean::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2SetString`.
@@ -235,7 +276,9 @@ macro_rules! export_fmi2 {
             nvr: usize,
             value: *const $crate::abi::Fmi2String,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_set_string::<$model>(c, vr, nvr, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_set_string::<$model>(c, vr, nvr, value) }
         }
 
         /// FMI 2.0 `fmi2GetFMUstate`.
@@ -245,7 +288,9 @@ macro_rules! export_fmi2 {
             c: $crate::abi::Fmi2Component,
             FMUstate: *mut $crate::abi::Fmi2FmuState,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_fmu_state::<$model>(c, FMUstate)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_fmu_state::<$model>(c, FMUstate) }
         }
 
         /// FMI 2.0 `fmi2SetFMUstate`.
@@ -255,7 +300,9 @@ macro_rules! export_fmi2 {
             c: $crate::abi::Fmi2Component,
             FMUstate: $crate::abi::Fmi2FmuState,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_set_fmu_state::<$model>(c, FMUstate)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_set_fmu_state::<$model>(c, FMUstate) }
         }
 
         /// FMI 2.0 `fmi2FreeFMUstate`.
@@ -265,7 +312,9 @@ macro_rules! export_fmi2 {
             c: $crate::abi::Fmi2Component,
             FMUstate: *mut $crate::abi::Fmi2FmuState,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_free_fmu_state::<$model>(c, FMUstate)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_free_fmu_state::<$model>(c, FMUstate) }
         }
 
         /// FMI 2.0 `fmi2SerializedFMUstateSize`.
@@ -276,7 +325,9 @@ macro_rules! export_fmi2 {
             FMUstate: $crate::abi::Fmi2FmuState,
             size: *mut usize,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_serialized_fmu_state_size::<$model>(c, FMUstate, size)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_serialized_fmu_state_size::<$model>(c, FMUstate, size) }
         }
 
         /// FMI 2.0 `fmi2SerializeFMUstate`.
@@ -288,7 +339,16 @@ macro_rules! export_fmi2 {
             serializedState: *mut $crate::abi::Fmi2Byte,
             size: usize,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_serialize_fmu_state::<$model>(c, FMUstate, serializedState, size)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_serialize_fmu_state::<$model>(
+                    c,
+                    FMUstate,
+                    serializedState,
+                    size,
+                )
+            }
         }
 
         /// FMI 2.0 `fmi2DeSerializeFMUstate`.
@@ -300,7 +360,16 @@ macro_rules! export_fmi2 {
             size: usize,
             FMUstate: *mut $crate::abi::Fmi2FmuState,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_deserialize_fmu_state::<$model>(c, serializedState, size, FMUstate)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_deserialize_fmu_state::<$model>(
+                    c,
+                    serializedState,
+                    size,
+                    FMUstate,
+                )
+            }
         }
 
         /// FMI 2.0 `fmi2GetDirectionalDerivative`.
@@ -315,15 +384,19 @@ macro_rules! export_fmi2 {
             dvKnown: *const $crate::abi::Fmi2Real,
             dvUnknown: *mut $crate::abi::Fmi2Real,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_directional_derivative::<$model>(
-                c,
-                vUnknown_ref,
-                nUnknown,
-                vKnown_ref,
-                nKnown,
-                dvKnown,
-                dvUnknown,
-            )
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_get_directional_derivative::<$model>(
+                    c,
+                    vUnknown_ref,
+                    nUnknown,
+                    vKnown_ref,
+                    nKnown,
+                    dvKnown,
+                    dvUnknown,
+                )
+            }
         }
 
         /// FMI 2.0 `fmi2SetRealInputDerivatives`.
@@ -336,7 +409,11 @@ macro_rules! export_fmi2 {
             order: *const $crate::abi::Fmi2Integer,
             value: *const $crate::abi::Fmi2Real,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_set_real_input_derivatives::<$model>(c, vr, nvr, order, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_set_real_input_derivatives::<$model>(c, vr, nvr, order, value)
+            }
         }
 
         /// FMI 2.0 `fmi2GetRealOutputDerivatives`.
@@ -349,7 +426,11 @@ macro_rules! export_fmi2 {
             order: *const $crate::abi::Fmi2Integer,
             value: *mut $crate::abi::Fmi2Real,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_real_output_derivatives::<$model>(c, vr, nvr, order, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_get_real_output_derivatives::<$model>(c, vr, nvr, order, value)
+            }
         }
 
         /// FMI 2.0 `fmi2DoStep`.
@@ -361,12 +442,16 @@ macro_rules! export_fmi2 {
             communicationStepSize: $crate::abi::Fmi2Real,
             noSetFMUStatePriorToCurrentPoint: $crate::abi::Fmi2Boolean,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_do_step::<$model>(
-                c,
-                currentCommunicationPoint,
-                communicationStepSize,
-                noSetFMUStatePriorToCurrentPoint,
-            )
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_do_step::<$model>(
+                    c,
+                    currentCommunicationPoint,
+                    communicationStepSize,
+                    noSetFMUStatePriorToCurrentPoint,
+                )
+            }
         }
 
         /// FMI 2.0 `fmi2CancelStep`.
@@ -375,7 +460,9 @@ macro_rules! export_fmi2 {
         pub unsafe extern "C" fn fmi2CancelStep(
             c: $crate::abi::Fmi2Component,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_cancel_step::<$model>(c)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_cancel_step::<$model>(c) }
         }
 
         /// FMI 2.0 `fmi2GetStatus`.
@@ -386,7 +473,9 @@ macro_rules! export_fmi2 {
             s: ::std::ffi::c_int,
             value: *mut ::std::ffi::c_int,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_status::<$model>(c, s, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_status::<$model>(c, s, value) }
         }
 
         /// FMI 2.0 `fmi2GetRealStatus`.
@@ -397,7 +486,9 @@ macro_rules! export_fmi2 {
             s: ::std::ffi::c_int,
             value: *mut $crate::abi::Fmi2Real,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_real_status::<$model>(c, s, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_real_status::<$model>(c, s, value) }
         }
 
         /// FMI 2.0 `fmi2GetIntegerStatus`.
@@ -408,7 +499,9 @@ macro_rules! export_fmi2 {
             s: ::std::ffi::c_int,
             value: *mut $crate::abi::Fmi2Integer,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_integer_status::<$model>(c, s, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_integer_status::<$model>(c, s, value) }
         }
 
         /// FMI 2.0 `fmi2GetBooleanStatus`.
@@ -419,7 +512,9 @@ macro_rules! export_fmi2 {
             s: ::std::ffi::c_int,
             value: *mut $crate::abi::Fmi2Boolean,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_boolean_status::<$model>(c, s, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_boolean_status::<$model>(c, s, value) }
         }
 
         /// FMI 2.0 `fmi2GetStringStatus`.
@@ -430,7 +525,9 @@ macro_rules! export_fmi2 {
             s: ::std::ffi::c_int,
             value: *mut $crate::abi::Fmi2String,
         ) -> $crate::abi::Fmi2Status {
-            $crate::shell::fmi2_get_string_status::<$model>(c, s, value)
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_string_status::<$model>(c, s, value) }
         }
     };
 }
@@ -456,7 +553,9 @@ macro_rules! export_describe {
         pub unsafe extern "C" fn fmu_model_description(
             json: *const ::std::ffi::c_char,
         ) -> *mut ::std::ffi::c_char {
-            $crate::export::describe_ffi(json, $describe)
+            // SAFETY: the arguments are passed on unchanged, so the function's contract is
+            // this symbol's, stated above.
+            unsafe { $crate::export::describe_ffi(json, $describe) }
         }
 
         /// Free a string returned by `fmu_model_description`.
@@ -465,7 +564,9 @@ macro_rules! export_describe {
         /// `s` must come from `fmu_model_description` and not be freed twice.
         #[no_mangle]
         pub unsafe extern "C" fn fmu_free_string(s: *mut ::std::ffi::c_char) {
-            $crate::export::free_string_ffi(s)
+            // SAFETY: the arguments are passed on unchanged, so the function's contract is
+            // this symbol's, stated above.
+            unsafe { $crate::export::free_string_ffi(s) }
         }
     };
 }
@@ -482,7 +583,9 @@ pub unsafe fn describe_ffi(
         let text = if json.is_null() {
             None
         } else {
-            Some(std::ffi::CStr::from_ptr(json).to_str().ok()?)
+            // SAFETY: non-NULL, so a NUL-terminated string valid during the call (caller's
+            // contract).
+            Some(unsafe { std::ffi::CStr::from_ptr(json) }.to_str().ok()?)
         };
         std::ffi::CString::new(describe(text)?)
             .ok()
@@ -499,6 +602,8 @@ pub unsafe fn describe_ffi(
 /// `s` must be null or come from [`describe_ffi`], and not be freed twice.
 pub unsafe fn free_string_ffi(s: *mut std::ffi::c_char) {
     if !s.is_null() {
-        drop(std::ffi::CString::from_raw(s));
+        // SAFETY: `s` came from `CString::into_raw` in `describe_ffi` and is freed once
+        // (caller's contract).
+        drop(unsafe { std::ffi::CString::from_raw(s) });
     }
 }

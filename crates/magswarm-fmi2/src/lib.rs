@@ -17,7 +17,8 @@
 //! - [`instance`]: one instance and the logic of every call;
 //! - [`shell`]: the generic `unsafe fn` entry points (pointers, state checks, panic barrier);
 //! - [`export`]: [`export_fmi2!`], the `#[no_mangle] extern "C"` forwarders;
-//! - [`snapshot`]: FMU states in memory and as bytes; [`bytes`]: helpers for the latter;
+//! - [`snapshot`]: FMU states in memory and as bytes (the model's serde state type, framed
+//!   with a version and a checksum);
 //! - [`xml`]: `modelDescription.xml`; [`mod@guid`]: the GUID both sides compute;
 //! - [`uri`]: `fmuResourceLocation` to a path; [`units`]: ready-made unit definitions;
 //! - [`jacobian`]: the finite-difference fallback for directional derivatives.
@@ -25,11 +26,14 @@
 //! # Example: a gain `y = k u` as an FMU
 //!
 //! ```no_run
-//! use magswarm_fmi2::bytes::{ByteReader, PutBytes};
 //! use magswarm_fmi2::{units, Ctx, Fmi2Err, FmuModel, InstantiateArgs, ModelInfo, VarType, Variable};
 //!
 //! #[derive(Clone)]
 //! pub struct Gain { u: f64, k: f64 }
+//!
+//! /// What `fmi2SerializeFMUstate` saves (the shell encodes and checks it).
+//! #[derive(serde::Serialize, serde::Deserialize)]
+//! pub struct GainState { u: f64, k: f64 }
 //!
 //! static VARIABLES: [Variable; 3] = [
 //!     Variable::real("u", 0).input().start_real(0.0).unit("m").display_unit("mm"),
@@ -71,16 +75,13 @@
 //!         }
 //!         Ok(())
 //!     }
-//!     fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
-//!         out.put_f64(self.u);
-//!         out.put_f64(self.k);
-//!         Ok(())
+//!     type State = GainState;
+//!     fn save_state(&self) -> Result<GainState, Fmi2Err> {
+//!         Ok(GainState { u: self.u, k: self.k })
 //!     }
-//!     fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
-//!         let mut r = ByteReader::new(bytes);
-//!         let (u, k) = (r.f64()?, r.f64()?);
-//!         r.finish()?;
-//!         (self.u, self.k) = (u, k);
+//!     fn restore_state(&mut self, s: GainState) -> Result<(), Fmi2Err> {
+//!         if !s.k.is_finite() { return Err(Fmi2Err::error("state: gain k must be finite")) }
+//!         (self.u, self.k) = (s.u, s.k);
 //!         Ok(())
 //!     }
 //! }
@@ -99,9 +100,9 @@
 //! FMU must be built with `panic = "unwind"`, which the workspace profile sets).
 
 #![warn(missing_docs)]
+#![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod abi;
-pub mod bytes;
 pub mod export;
 pub mod guid;
 pub mod host;

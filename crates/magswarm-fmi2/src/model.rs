@@ -10,6 +10,7 @@
 //! table as a `static`. A model whose table needs run-time data (e.g. defaults computed
 //! by the physics crate) can build it once in a `std::sync::LazyLock` and leak the vectors.
 
+use serde::{de::DeserializeOwned, Serialize};
 use std::fmt;
 use std::path::Path;
 
@@ -704,16 +705,27 @@ pub trait FmuModel: Clone + Send + Sized + 'static {
         Err(Fmi2Err::unknown_vr(VarType::String, vr))
     }
 
-    /// Append the model's complete dynamic state to `out` (the shell adds a header with a
-    /// magic number, the GUID, its own state, the length and a checksum). Must be exact
-    /// (bit-identical replay): write `f64` as bits, see [`crate::bytes`].
-    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err>;
+    /// The model's complete dynamic state as data, for `fmi2SerializeFMUstate` and
+    /// `fmi2DeSerializeFMUstate`. The shell alone encodes it (CBOR, with a header naming the
+    /// GUID, [`FmuModel::STATE_VERSION`], the length and a CRC-32; see [`crate::snapshot`]),
+    /// so a model declares *what* its state is and never writes paired byte code. Floats
+    /// keep their exact bits, so a restored state replays bit-identically. In-memory states
+    /// (`fmi2GetFMUstate`) do not use it: they are clones of the model.
+    type State: Serialize + DeserializeOwned;
 
-    /// Overwrite the dynamic state of `self` (a clone of the live instance, so anything not
-    /// serialized, like configuration read from resources, is already there) from bytes
-    /// written by [`FmuModel::serialize_state`]. Bad bytes must give `Err`, never a panic
-    /// (though the shell would catch one).
-    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err>;
+    /// Version of [`FmuModel::State`]'s layout, written into every serialized state. Bump it
+    /// when the state type changes, so that bytes saved by another build of the FMU are
+    /// refused with a message saying so instead of being misread.
+    const STATE_VERSION: u32 = 1;
+
+    /// The current dynamic state.
+    fn save_state(&self) -> Result<Self::State, Fmi2Err>;
+
+    /// Put `self` (a clone of the live instance, so anything not in the state, like
+    /// configuration read from resources, is already there) into `state`. The bytes it came
+    /// from passed the shell's checksum, which proves them intact, not honest: validate the
+    /// values as if they had been set (`Err` leaves `self` unusable; the shell discards it).
+    fn restore_state(&mut self, state: Self::State) -> Result<(), Fmi2Err>;
 
     /// `fmi2GetDirectionalDerivative`: `dv_unknown = J * dv_known` with J the Jacobian of the
     /// `unknowns` with respect to the `knowns` (inputs and states) at the current point. The

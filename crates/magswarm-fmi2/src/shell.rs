@@ -1,5 +1,8 @@
 //! The FMI 2.0 Co-Simulation entry points as generic `unsafe fn`s over an [`FmuModel`].
 //!
+//! A long file that is one cohesive thing: one entry point per function of the standard, all
+//! with the same prologue, in the order of the standard's API.
+//!
 //! [`crate::export_fmi2!`] wraps each of these in a `#[no_mangle] extern "C"` function in
 //! the FMU's cdylib (generic functions cannot be exported directly). Each one:
 //!
@@ -15,7 +18,11 @@
 //! All functions here are `unsafe` because they trust the importer's pointers the way the
 //! FMI standard says they may: a non-NULL pointer points to valid memory of the stated
 //! size, and an `fmi2Component` / `fmi2FMUstate` is one this library handed out (a stale
-//! or foreign pointer is detected by a magic number on a best-effort basis only).
+//! or foreign pointer is detected by a magic number on a best-effort basis only). The
+//! standard also says an instance is never called from two threads at once, which is what
+//! makes the `&mut Instance` of each call the only reference to it. Every dereference below
+//! carries a `SAFETY` comment naming which of these promises it relies on
+//! (`unsafe_op_in_unsafe_fn` is denied crate-wide, so none is implicit).
 
 use std::ffi::{c_char, c_int, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -52,9 +59,9 @@ thread_local! {
 
 /// The panic hook in force before the shell installed its own (called for panics outside
 /// the barrier, so a Rust host linking the shell keeps its own reporting).
-static PREVIOUS_HOOK: std::sync::OnceLock<
-    Box<dyn Fn(&std::panic::PanicHookInfo<'_>) + Sync + Send>,
-> = std::sync::OnceLock::new();
+static PREVIOUS_HOOK: std::sync::OnceLock<PanicHook> = std::sync::OnceLock::new();
+/// A panic hook as `std::panic::take_hook` returns it.
+type PanicHook = Box<dyn Fn(&std::panic::PanicHookInfo<'_>) + Sync + Send>;
 static HOOK: std::sync::Once = std::sync::Once::new();
 
 /// Install (once) a panic hook that stays silent for panics inside the barrier: an FMU must
@@ -91,7 +98,9 @@ pub(crate) fn barrier<R>(f: impl FnOnce() -> R) -> std::thread::Result<R> {
 
 /// The instance behind `c`, if it is one of ours and alive.
 unsafe fn instance<M: FmuModel>(c: Fmi2Component) -> Option<*mut Instance<M>> {
-    if c.is_null() || (c as *const u64).read() != INSTANCE_MAGIC {
+    // SAFETY: a non-NULL component is one fmi2Instantiate returned (caller's contract): a
+    // `#[repr(C)]` Instance whose first field is the u64 magic, so reading 8 bytes is in bounds.
+    if c.is_null() || unsafe { (c as *const u64).read() } != INSTANCE_MAGIC {
         return None;
     }
     Some(c as *mut Instance<M>)
@@ -103,12 +112,15 @@ unsafe fn entry<M: FmuModel>(
     func: Func,
     body: impl FnOnce(&mut Instance<M>) -> Fmi2Status,
 ) -> Fmi2Status {
-    let Some(inst) = instance::<M>(c) else {
+    // SAFETY: `c` is NULL or a component of this library (caller's contract).
+    let Some(inst) = (unsafe { instance::<M>(c) }) else {
         // Nothing to log through: the logger lives in the instance.
         return Fmi2Status::Error;
     };
     let result = barrier(|| {
-        let i = &mut *inst;
+        // SAFETY: `inst` is a live instance (magic checked) and the importer makes no other
+        // call on it while this one runs, so this is the only reference.
+        let i = unsafe { &mut *inst };
         let mode = i.shell.mode;
         if !func.allowed_in(mode) {
             let hint = match func {
@@ -149,7 +161,8 @@ unsafe fn entry<M: FmuModel>(
             let msg = panic_message(&*payload);
             drop_payload(payload);
             let logged = barrier(|| {
-                (*inst).fail(
+                // SAFETY: as above; the body's reference ended with its panic.
+                unsafe { &mut *inst }.fail(
                     func,
                     Fmi2Status::Error,
                     format!("internal error: the model panicked: {msg}"),
@@ -174,7 +187,9 @@ unsafe fn slice<'a, T>(p: *const T, n: usize) -> Result<&'a [T], ()> {
     } else if p.is_null() {
         Err(())
     } else {
-        Ok(std::slice::from_raw_parts(p, n))
+        // SAFETY: a non-NULL array argument points to `n` valid elements that stay alive and
+        // unaliased for the duration of the call (caller's contract, FMI 2.0 section 2.1.2).
+        Ok(unsafe { std::slice::from_raw_parts(p, n) })
     }
 }
 
@@ -184,7 +199,8 @@ unsafe fn slice_mut<'a, T>(p: *mut T, n: usize) -> Result<&'a mut [T], ()> {
     } else if p.is_null() {
         Err(())
     } else {
-        Ok(std::slice::from_raw_parts_mut(p, n))
+        // SAFETY: as in `slice`; the importer gives the FMU this output array to write.
+        Ok(unsafe { std::slice::from_raw_parts_mut(p, n) })
     }
 }
 
@@ -200,7 +216,9 @@ unsafe fn opt_str<'a>(p: *const c_char) -> Option<&'a CStr> {
     if p.is_null() {
         None
     } else {
-        Some(CStr::from_ptr(p))
+        // SAFETY: a non-NULL string argument is NUL-terminated and valid during the call
+        // (caller's contract).
+        Some(unsafe { CStr::from_ptr(p) })
     }
 }
 
@@ -233,10 +251,13 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
     visible: Fmi2Boolean,
     logging_on: Fmi2Boolean,
 ) -> Fmi2Component {
-    let Some(callbacks) = functions.as_ref() else {
+    // SAFETY: `functions` is NULL or points to the importer's callback struct, which must
+    // outlive the instance (FMI 2.0 section 2.1.5); it is copied into the logger here.
+    let Some(callbacks) = (unsafe { functions.as_ref() }) else {
         return std::ptr::null_mut();
     };
-    let name = opt_str(instance_name).map(|s| s.to_string_lossy().into_owned());
+    // SAFETY: NULL or a NUL-terminated string (caller's contract).
+    let name = unsafe { opt_str(instance_name) }.map(|s| s.to_string_lossy().into_owned());
     let info = M::model_info();
     let known: Vec<&'static str> = all_categories(info.log_categories)
         .iter()
@@ -281,7 +302,8 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
         })?;
         let guid = guid_u128(info);
         let expected = crate::guid::format_guid(guid);
-        let given = match opt_str(fmu_guid) {
+        // SAFETY: NULL or a NUL-terminated string (caller's contract).
+        let given = match unsafe { opt_str(fmu_guid) } {
             None => return Err("fmuGUID must not be NULL".into()),
             Some(g) => g.to_string_lossy().into_owned(),
         };
@@ -291,7 +313,9 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
                  modelDescription.xml does not belong to this binary"
             ));
         }
-        let location = opt_str(fmu_resource_location).map(|s| s.to_string_lossy().into_owned());
+        // SAFETY: NULL or a NUL-terminated string (caller's contract).
+        let location =
+            unsafe { opt_str(fmu_resource_location) }.map(|s| s.to_string_lossy().into_owned());
         let (dir, uri_problem) = match location.as_deref().map(resource_dir) {
             None => (None, None),
             Some(Ok(d)) => (d, None),
@@ -360,7 +384,8 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
     });
     match result {
         Ok(Ok(c)) => {
-            let i = &*(c as *const Instance<M>);
+            // SAFETY: `c` is the box just leaked above; nothing else holds it yet.
+            let i = unsafe { &*(c as *const Instance<M>) };
             if i.logger.is_enabled(Fmi2Status::Ok, CAT_EVENTS) {
                 i.logger.log(
                     Fmi2Status::Ok,
@@ -394,10 +419,18 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
 /// # Safety
 /// `c` must be NULL or a pointer returned by [`fmi2_instantiate`] for the same `M`.
 pub unsafe fn fmi2_free_instance<M: FmuModel>(c: Fmi2Component) {
-    let Some(inst) = instance::<M>(c) else { return };
+    // SAFETY: `c` is NULL or a component of this library (caller's contract).
+    let Some(inst) = (unsafe { instance::<M>(c) }) else {
+        return;
+    };
     let r = barrier(|| {
-        (*inst).magic = 0;
-        drop(Box::from_raw(inst));
+        // SAFETY: `inst` is a live instance leaked from a Box by fmi2Instantiate; after
+        // fmi2FreeInstance the importer never uses it again, so it is dropped exactly once.
+        // The magic is cleared first so a stale use is refused on a best-effort basis.
+        unsafe {
+            (*inst).magic = 0;
+            drop(Box::from_raw(inst));
+        }
     });
     if let Err(p) = r {
         drop_payload(p);
@@ -414,19 +447,24 @@ pub unsafe fn fmi2_set_debug_logging<M: FmuModel>(
     n_categories: usize,
     categories: *const Fmi2String,
 ) -> Fmi2Status {
-    entry::<M>(c, Func::SetDebugLogging, |i| {
-        let Ok(cats) = slice(categories, n_categories) else {
+    let body = |i: &mut Instance<M>| {
+        // SAFETY: `categories` holds `n_categories` string pointers (caller's contract).
+        let Ok(cats) = (unsafe { slice(categories, n_categories) }) else {
             return null_arg(i, Func::SetDebugLogging, "categories");
         };
         let mut names = Vec::with_capacity(cats.len());
         for &p in cats {
-            match opt_str(p) {
+            // SAFETY: each category is NULL or a NUL-terminated string (caller's contract).
+            match unsafe { opt_str(p) } {
                 Some(s) => names.push(s.to_string_lossy().into_owned()),
                 None => return null_arg(i, Func::SetDebugLogging, "categories[i]"),
             }
         }
         i.set_debug_logging(logging_on != 0, &names)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::SetDebugLogging, body) }
 }
 
 /// `fmi2SetupExperiment`.
@@ -441,13 +479,16 @@ pub unsafe fn fmi2_setup_experiment<M: FmuModel>(
     stop_time_defined: Fmi2Boolean,
     stop_time: Fmi2Real,
 ) -> Fmi2Status {
-    entry::<M>(c, Func::SetupExperiment, |i| {
+    let body = |i: &mut Instance<M>| {
         i.setup_experiment(
             (tolerance_defined != 0).then_some(tolerance),
             start_time,
             (stop_time_defined != 0).then_some(stop_time),
         )
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::SetupExperiment, body) }
 }
 
 /// `fmi2EnterInitializationMode`.
@@ -455,9 +496,10 @@ pub unsafe fn fmi2_setup_experiment<M: FmuModel>(
 /// # Safety
 /// See the module documentation.
 pub unsafe fn fmi2_enter_initialization_mode<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
-    entry::<M>(c, Func::EnterInitializationMode, |i| {
-        i.enter_initialization_mode()
-    })
+    let body = |i: &mut Instance<M>| i.enter_initialization_mode();
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::EnterInitializationMode, body) }
 }
 
 /// `fmi2ExitInitializationMode`.
@@ -465,9 +507,10 @@ pub unsafe fn fmi2_enter_initialization_mode<M: FmuModel>(c: Fmi2Component) -> F
 /// # Safety
 /// See the module documentation.
 pub unsafe fn fmi2_exit_initialization_mode<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
-    entry::<M>(c, Func::ExitInitializationMode, |i| {
-        i.exit_initialization_mode()
-    })
+    let body = |i: &mut Instance<M>| i.exit_initialization_mode();
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::ExitInitializationMode, body) }
 }
 
 /// `fmi2Terminate`.
@@ -475,7 +518,10 @@ pub unsafe fn fmi2_exit_initialization_mode<M: FmuModel>(c: Fmi2Component) -> Fm
 /// # Safety
 /// See the module documentation.
 pub unsafe fn fmi2_terminate<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
-    entry::<M>(c, Func::Terminate, |i| i.terminate())
+    let body = |i: &mut Instance<M>| i.terminate();
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::Terminate, body) }
 }
 
 /// `fmi2Reset`.
@@ -483,7 +529,10 @@ pub unsafe fn fmi2_terminate<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
 /// # Safety
 /// See the module documentation.
 pub unsafe fn fmi2_reset<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
-    entry::<M>(c, Func::Reset, |i| i.reset())
+    let body = |i: &mut Instance<M>| i.reset();
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::Reset, body) }
 }
 
 macro_rules! getter {
@@ -498,11 +547,17 @@ macro_rules! getter {
             nvr: usize,
             value: *mut $t,
         ) -> Fmi2Status {
-            entry::<M>(c, $func, |i| {
-                let Ok(vrs) = slice(vr, nvr) else { return null_arg(i, $func, "vr") };
-                let Ok(out) = slice_mut(value, nvr) else { return null_arg(i, $func, "value") };
+            let body = |i: &mut Instance<M>| {
+                // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract);
+                // `value` is the importer's output buffer, not aliased by `vr`.
+                let Ok(vrs) = (unsafe { slice(vr, nvr) }) else { return null_arg(i, $func, "vr") };
+                // SAFETY: as above.
+                let Ok(out) = (unsafe { slice_mut(value, nvr) }) else { return null_arg(i, $func, "value") };
                 i.$method(vrs, out)
-            })
+            };
+            // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+            // `entry` tells which before touching it.
+            unsafe { entry::<M>(c, $func, body) }
         }
     };
 }
@@ -533,11 +588,16 @@ macro_rules! setter {
             nvr: usize,
             value: *const $t,
         ) -> Fmi2Status {
-            entry::<M>(c, $func, |i| {
-                let Ok(vrs) = slice(vr, nvr) else { return null_arg(i, $func, "vr") };
-                let Ok(vals) = slice(value, nvr) else { return null_arg(i, $func, "value") };
+            let body = |i: &mut Instance<M>| {
+                // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract).
+                let Ok(vrs) = (unsafe { slice(vr, nvr) }) else { return null_arg(i, $func, "vr") };
+                // SAFETY: as above.
+                let Ok(vals) = (unsafe { slice(value, nvr) }) else { return null_arg(i, $func, "value") };
                 i.$method(vrs, vals)
-            })
+            };
+            // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+            // `entry` tells which before touching it.
+            unsafe { entry::<M>(c, $func, body) }
         }
     };
 }
@@ -563,19 +623,25 @@ pub unsafe fn fmi2_set_string<M: FmuModel>(
     value: *const Fmi2String,
 ) -> Fmi2Status {
     let f = Func::SetString;
-    entry::<M>(c, f, |i| {
-        let Ok(vrs) = slice(vr, nvr) else {
+    let body = |i: &mut Instance<M>| {
+        // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract).
+        let Ok(vrs) = (unsafe { slice(vr, nvr) }) else {
             return null_arg(i, f, "vr");
         };
-        let Ok(vals) = slice(value, nvr) else {
+        // SAFETY: as above.
+        let Ok(vals) = (unsafe { slice(value, nvr) }) else {
             return null_arg(i, f, "value");
         };
         let strs: Vec<Option<&str>> = vals
             .iter()
-            .map(|&p| opt_str(p).and_then(|s| s.to_str().ok()))
+            // SAFETY: each value is NULL or a NUL-terminated string (caller's contract).
+            .map(|&p| unsafe { opt_str(p) }.and_then(|s| s.to_str().ok()))
             .collect();
         i.set_string(vrs, &strs)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// The snapshot behind an `fmi2FMUstate`, if this instance handed it out and it was not
@@ -611,11 +677,14 @@ pub unsafe fn fmi2_get_fmu_state<M: FmuModel>(
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
     let f = Func::GetFmuState;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if state.is_null() {
             return null_arg(i, f, "FMUstate");
         }
-        if (*state).is_null() {
+        // SAFETY: `state` is non-NULL and points to the importer's fmi2FMUstate variable
+        // (caller's contract), readable and writable.
+        let current = unsafe { *state };
+        if current.is_null() {
             let snap = Box::new(Snapshot {
                 magic: SNAPSHOT_MAGIC,
                 guid: i.guid,
@@ -625,18 +694,25 @@ pub unsafe fn fmi2_get_fmu_state<M: FmuModel>(
             });
             let p = Box::into_raw(snap);
             i.states.push(p);
-            *state = p as Fmi2FmuState;
+            // SAFETY: as above.
+            unsafe { *state = p as Fmi2FmuState };
         } else {
-            let snap = match snapshot_of(i, f, *state) {
+            let snap = match snapshot_of(i, f, current) {
                 Ok(s) => s,
                 Err(st) => return st,
             };
-            (*snap).shell = i.shell;
-            (*snap).model = i.model.clone();
-            (*snap).cached = None;
+            // SAFETY: the snapshot is a live box of this instance (`snapshot_of` found it in
+            // `i.states`), and nothing else references it during this call.
+            let snap = unsafe { &mut *snap };
+            snap.shell = i.shell;
+            snap.model = i.model.clone();
+            snap.cached = None;
         }
         Fmi2Status::Ok
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2SetFMUstate`: the instance becomes what it was, state machine included.
@@ -645,15 +721,21 @@ pub unsafe fn fmi2_get_fmu_state<M: FmuModel>(
 /// See the module documentation.
 pub unsafe fn fmi2_set_fmu_state<M: FmuModel>(c: Fmi2Component, state: Fmi2FmuState) -> Fmi2Status {
     let f = Func::SetFmuState;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         let snap = match snapshot_of(i, f, state) {
             Ok(s) => s,
             Err(st) => return st,
         };
-        i.model = (*snap).model.clone();
-        i.shell = (*snap).shell;
+        // SAFETY: the snapshot is a live box of this instance (`snapshot_of` found it in
+        // `i.states`), and nothing else references it during this call.
+        let snap = unsafe { &*snap };
+        i.model = snap.model.clone();
+        i.shell = snap.shell;
         Fmi2Status::Ok
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2FreeFMUstate`: frees `*state` and sets it to NULL (NULL `*state` is a no-op).
@@ -665,40 +747,59 @@ pub unsafe fn fmi2_free_fmu_state<M: FmuModel>(
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
     let f = Func::FreeFmuState;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if state.is_null() {
             return null_arg(i, f, "FMUstate");
         }
-        if (*state).is_null() {
+        // SAFETY: `state` is non-NULL and points to the importer's fmi2FMUstate variable
+        // (caller's contract), readable and writable.
+        let current = unsafe { *state };
+        if current.is_null() {
             return Fmi2Status::Ok;
         }
-        let snap = match snapshot_of(i, f, *state) {
+        let snap = match snapshot_of(i, f, current) {
             Ok(s) => s,
             Err(st) => return st,
         };
         i.states.retain(|&p| p != snap);
-        (*snap).magic = 0;
-        drop(Box::from_raw(snap));
-        *state = std::ptr::null_mut();
+        // SAFETY: the snapshot is a live box of this instance (`snapshot_of` found it in
+        // `i.states`), and nothing else references it during this call; it was leaked from a Box by this
+        // library and, just removed from the list, is dropped exactly once.
+        unsafe {
+            (*snap).magic = 0;
+            drop(Box::from_raw(snap));
+        }
+        // SAFETY: as above for `state`.
+        unsafe { *state = std::ptr::null_mut() };
         Fmi2Status::Ok
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
+/// The serialized form of `snap`, computed once and cached in it.
+///
+/// # Safety
+/// `snap` must be a live snapshot of `i` (from [`snapshot_of`]) that nothing else references
+/// while the returned slice is in use.
 unsafe fn serialized<'a, M: FmuModel>(
     i: &mut Instance<M>,
     f: Func,
     snap: *mut Snapshot<M>,
 ) -> Result<&'a [u8], Fmi2Status> {
-    if (*snap).cached.is_none() {
-        match snapshot::serialize(i.guid, &(*snap).shell, &(*snap).model) {
-            Ok(b) => (*snap).cached = Some(b),
+    // SAFETY: the caller's promise above.
+    let snap = unsafe { &mut *snap };
+    if snap.cached.is_none() {
+        match snapshot::serialize(i.guid, &snap.shell, &snap.model) {
+            Ok(b) => snap.cached = Some(b),
             Err(e) => {
                 let s = e.status.max(Fmi2Status::Error);
                 return Err(i.fail(f, s, format!("could not serialize: {}", e.message)));
             }
         }
     }
-    Ok((*snap).cached.as_deref().unwrap_or_default())
+    Ok(snap.cached.as_deref().unwrap_or_default())
 }
 
 /// `fmi2SerializedFMUstateSize`.
@@ -711,7 +812,7 @@ pub unsafe fn fmi2_serialized_fmu_state_size<M: FmuModel>(
     size: *mut usize,
 ) -> Fmi2Status {
     let f = Func::SerializedFmuStateSize;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if size.is_null() {
             return null_arg(i, f, "size");
         }
@@ -719,14 +820,21 @@ pub unsafe fn fmi2_serialized_fmu_state_size<M: FmuModel>(
             Ok(s) => s,
             Err(st) => return st,
         };
-        match serialized(i, f, snap) {
+        // SAFETY: `snap` is a live snapshot of `i` (from `snapshot_of`); the slice is used
+        // only within this call.
+        match unsafe { serialized(i, f, snap) } {
             Ok(b) => {
-                *size = b.len();
+                // SAFETY: non-NULL (checked above) and pointing to the importer's output
+                // variable (caller's contract).
+                unsafe { *size = b.len() };
                 Fmi2Status::Ok
             }
             Err(s) => s,
         }
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2SerializeFMUstate`: `size` must equal what `fmi2SerializedFMUstateSize` returned.
@@ -740,12 +848,14 @@ pub unsafe fn fmi2_serialize_fmu_state<M: FmuModel>(
     size: usize,
 ) -> Fmi2Status {
     let f = Func::SerializeFmuState;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         let snap = match snapshot_of(i, f, state) {
             Ok(s) => s,
             Err(st) => return st,
         };
-        let bytes = match serialized(i, f, snap) {
+        // SAFETY: `snap` is a live snapshot of `i` (from `snapshot_of`); the slice is used
+        // only within this call.
+        let bytes = match unsafe { serialized(i, f, snap) } {
             Ok(b) => b,
             Err(s) => return s,
         };
@@ -756,12 +866,17 @@ pub unsafe fn fmi2_serialize_fmu_state<M: FmuModel>(
                 format!("size = {size} but the serialized state has {} bytes (see fmi2SerializedFMUstateSize)", bytes.len()),
             );
         }
-        let Ok(out) = slice_mut(serialized_state as *mut u8, size) else {
+        // SAFETY: the importer's buffer of `size` bytes (caller's contract), which is not
+        // the snapshot's cache it is copied from.
+        let Ok(out) = (unsafe { slice_mut(serialized_state as *mut u8, size) }) else {
             return null_arg(i, f, "serializedState");
         };
         out.copy_from_slice(bytes);
         Fmi2Status::Ok
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2DeSerializeFMUstate`: always allocates a new FMU state (the incoming `*state`
@@ -776,11 +891,12 @@ pub unsafe fn fmi2_deserialize_fmu_state<M: FmuModel>(
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
     let f = Func::DeSerializeFmuState;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if state.is_null() {
             return null_arg(i, f, "FMUstate");
         }
-        let Ok(bytes) = slice(serialized_state as *const u8, size) else {
+        // SAFETY: the importer's buffer of `size` bytes (caller's contract).
+        let Ok(bytes) = (unsafe { slice(serialized_state as *const u8, size) }) else {
             return null_arg(i, f, "serializedState");
         };
         match snapshot::deserialize(i.guid, bytes, i.model.clone()) {
@@ -794,7 +910,9 @@ pub unsafe fn fmi2_deserialize_fmu_state<M: FmuModel>(
                 });
                 let p = Box::into_raw(snap);
                 i.states.push(p);
-                *state = p as Fmi2FmuState;
+                // SAFETY: non-NULL (checked above) and pointing to the importer's
+                // fmi2FMUstate variable (caller's contract).
+                unsafe { *state = p as Fmi2FmuState };
                 Fmi2Status::Ok
             }
             Err(e) => {
@@ -802,7 +920,10 @@ pub unsafe fn fmi2_deserialize_fmu_state<M: FmuModel>(
                 i.fail(f, s, format!("invalid serialized state: {}", e.message))
             }
         }
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2GetDirectionalDerivative`.
@@ -820,21 +941,26 @@ pub unsafe fn fmi2_get_directional_derivative<M: FmuModel>(
     dv_unknown: *mut Fmi2Real,
 ) -> Fmi2Status {
     let f = Func::GetDirectionalDerivative;
-    entry::<M>(c, f, |i| {
-        let Ok(unknowns) = slice(v_unknown_ref, n_unknown) else {
+    let body = |i: &mut Instance<M>| {
+        // SAFETY (all four): arrays of the counts the importer passes (caller's contract);
+        // `dvUnknown` is its output buffer, aliased by none of the inputs.
+        let Ok(unknowns) = (unsafe { slice(v_unknown_ref, n_unknown) }) else {
             return null_arg(i, f, "vUnknown_ref");
         };
-        let Ok(knowns) = slice(v_known_ref, n_known) else {
+        let Ok(knowns) = (unsafe { slice(v_known_ref, n_known) }) else {
             return null_arg(i, f, "vKnown_ref");
         };
-        let Ok(dvk) = slice(dv_known, n_known) else {
+        let Ok(dvk) = (unsafe { slice(dv_known, n_known) }) else {
             return null_arg(i, f, "dvKnown");
         };
-        let Ok(dvu) = slice_mut(dv_unknown, n_unknown) else {
+        let Ok(dvu) = (unsafe { slice_mut(dv_unknown, n_unknown) }) else {
             return null_arg(i, f, "dvUnknown");
         };
         i.directional_derivative(unknowns, knowns, dvk, dvu)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2SetRealInputDerivatives`: not supported (`canInterpolateInputs="false"`).
@@ -849,13 +975,16 @@ pub unsafe fn fmi2_set_real_input_derivatives<M: FmuModel>(
     _value: *const Fmi2Real,
 ) -> Fmi2Status {
     let f = Func::SetRealInputDerivatives;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         i.fail(
             f,
             Fmi2Status::Error,
             "not supported: this FMU cannot interpolate inputs (canInterpolateInputs=\"false\")",
         )
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2GetRealOutputDerivatives`: not supported (`maxOutputDerivativeOrder="0"`).
@@ -870,9 +999,12 @@ pub unsafe fn fmi2_get_real_output_derivatives<M: FmuModel>(
     _value: *mut Fmi2Real,
 ) -> Fmi2Status {
     let f = Func::GetRealOutputDerivatives;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         i.fail(f, Fmi2Status::Error, "not supported: this FMU provides no output derivatives (maxOutputDerivativeOrder=\"0\")")
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2DoStep`.
@@ -885,9 +1017,11 @@ pub unsafe fn fmi2_do_step<M: FmuModel>(
     communication_step_size: Fmi2Real,
     _no_set_fmu_state_prior_to_current_point: Fmi2Boolean,
 ) -> Fmi2Status {
-    entry::<M>(c, Func::DoStep, |i| {
-        i.do_step(current_communication_point, communication_step_size)
-    })
+    let body =
+        |i: &mut Instance<M>| i.do_step(current_communication_point, communication_step_size);
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::DoStep, body) }
 }
 
 /// `fmi2CancelStep`: always an illegal call (no step is ever pending).
@@ -895,7 +1029,10 @@ pub unsafe fn fmi2_do_step<M: FmuModel>(
 /// # Safety
 /// See the module documentation.
 pub unsafe fn fmi2_cancel_step<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
-    entry::<M>(c, Func::CancelStep, |_| Fmi2Status::Error)
+    let body = |_: &mut Instance<M>| Fmi2Status::Error;
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::CancelStep, body) }
 }
 
 fn status_kind_name(kind: c_int) -> Option<&'static str> {
@@ -931,12 +1068,15 @@ pub unsafe fn fmi2_get_status<M: FmuModel>(
     value: *mut c_int,
 ) -> Fmi2Status {
     let f = Func::GetStatus;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if value.is_null() {
             return null_arg(i, f, "value");
         }
         status_unavailable(i, f, kind)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2GetRealStatus`: `fmi2LastSuccessfulTime` is the current communication point.
@@ -949,16 +1089,21 @@ pub unsafe fn fmi2_get_real_status<M: FmuModel>(
     value: *mut Fmi2Real,
 ) -> Fmi2Status {
     let f = Func::GetRealStatus;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if value.is_null() {
             return null_arg(i, f, "value");
         }
         if kind == FMI2_LAST_SUCCESSFUL_TIME {
-            *value = i.shell.time;
+            // SAFETY: non-NULL (checked above) and pointing to the importer's output
+            // variable (caller's contract).
+            unsafe { *value = i.shell.time };
             return Fmi2Status::Ok;
         }
         status_unavailable(i, f, kind)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2GetIntegerStatus`: no integer status exists in FMI 2.0 (`fmi2Discard`).
@@ -971,12 +1116,15 @@ pub unsafe fn fmi2_get_integer_status<M: FmuModel>(
     value: *mut Fmi2Integer,
 ) -> Fmi2Status {
     let f = Func::GetIntegerStatus;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if value.is_null() {
             return null_arg(i, f, "value");
         }
         status_unavailable(i, f, kind)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2GetBooleanStatus`: `fmi2Terminated` is always false (the FMU never asks to stop).
@@ -989,16 +1137,21 @@ pub unsafe fn fmi2_get_boolean_status<M: FmuModel>(
     value: *mut Fmi2Boolean,
 ) -> Fmi2Status {
     let f = Func::GetBooleanStatus;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if value.is_null() {
             return null_arg(i, f, "value");
         }
         if kind == FMI2_TERMINATED {
-            *value = FMI2_FALSE;
+            // SAFETY: non-NULL (checked above) and pointing to the importer's output
+            // variable (caller's contract).
+            unsafe { *value = FMI2_FALSE };
             return Fmi2Status::Ok;
         }
         status_unavailable(i, f, kind)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }
 
 /// `fmi2GetStringStatus`: `fmi2PendingStatus` only exists while pending (`fmi2Discard`).
@@ -1011,10 +1164,13 @@ pub unsafe fn fmi2_get_string_status<M: FmuModel>(
     value: *mut Fmi2String,
 ) -> Fmi2Status {
     let f = Func::GetStringStatus;
-    entry::<M>(c, f, |i| {
+    let body = |i: &mut Instance<M>| {
         if value.is_null() {
             return null_arg(i, f, "value");
         }
         status_unavailable(i, f, kind)
-    })
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, f, body) }
 }

@@ -6,22 +6,33 @@
 //! allowed. The logger, instance name and resource location are *not* part of it: they
 //! belong to the instance, not to the simulation state.
 //!
-//! Serialized layout (little-endian):
+//! # Serialized form
+//!
+//! Two layers. The *payload* is the CBOR encoding (RFC 8949, through `ciborium`) of
+//! `{shell, model}`: the shell's state and the model's [`FmuModel::State`], which the model
+//! declares as a serde type and never encodes itself. CBOR is self-describing (the models'
+//! serde attributes, such as skipped `None` fields, work) and keeps every `f64` bit for bit
+//! (NaN payloads included), so a restored state replays bit-identically. The *frame* around it
+//! says what the bytes are and proves them intact (all integers little-endian):
 //!
 //! | bytes | content |
 //! | --- | --- |
 //! | 8 | magic `FMI2STAT` |
-//! | 4 | format version (1) |
+//! | 4 | frame layout version ([`SERIAL_VERSION`]) |
 //! | 16 | GUID of the model (as 128 bits) |
-//! | 1 + 8 + 8 + 1 + 8 + 1 + 8 | mode, time, start time, stop time (flag + value), tolerance (flag + value) |
-//! | 8 + n | model payload length and bytes ([`crate::FmuModel::serialize_state`]) |
-//! | 8 | FNV-1a 64 checksum of everything before it |
+//! | 4 | version of the model's state type ([`FmuModel::STATE_VERSION`]) |
+//! | 8 | payload length n |
+//! | 4 | CRC-32 (IEEE) of the 40 header bytes before it and of the payload |
+//! | n | payload |
 //!
-//! Every field is validated on the way in, so truncated, foreign or corrupted bytes give
-//! `fmi2Error` with a reason, never a crash or a half-restored instance.
+//! [`deserialize`] checks, in this order and each with its own message: length of the
+//! header, magic, layout version, payload length, checksum, GUID, state version, the CBOR
+//! decoding, the shell state's plausibility, and finally the model's own validation
+//! ([`FmuModel::restore_state`]). So truncated, foreign, corrupted or forged bytes give
+//! `fmi2Error` naming the check that failed, never a crash or a half-restored instance.
 
-use crate::bytes::{ByteReader, PutBytes};
-use crate::guid::fnv1a_64;
+use serde::{Deserialize, Serialize};
+
 use crate::model::{Fmi2Err, FmuModel};
 use crate::state::Mode;
 
@@ -29,8 +40,12 @@ use crate::state::Mode;
 pub(crate) const SNAPSHOT_MAGIC: u64 = u64::from_le_bytes(*b"FMI2SNAP");
 /// Magic bytes at the start of a serialized state.
 pub const SERIAL_MAGIC: &[u8; 8] = b"FMI2STAT";
-/// Version of the serialized layout.
-pub const SERIAL_VERSION: u32 = 1;
+/// Version of the frame layout (1 was a hand-written payload with an FNV-1a checksum).
+pub const SERIAL_VERSION: u32 = 2;
+/// Bytes of the frame before the payload.
+pub const HEADER_LEN: usize = 44;
+/// Offset of the CRC-32 in the header (it covers the bytes before it and the payload).
+const CRC_AT: usize = 40;
 
 /// What the shell itself keeps besides the model.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,38 +88,139 @@ pub struct Snapshot<M> {
     pub(crate) cached: Option<Vec<u8>>,
 }
 
-/// Serialize shell state and model into the layout above.
+/// The shell's part of the payload (the mode as its stable byte, see [`Mode::to_byte`]).
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SavedShell {
+    mode: u8,
+    time: f64,
+    start_time: f64,
+    stop_time: Option<f64>,
+    tolerance: Option<f64>,
+}
+
+#[derive(Serialize)]
+struct PayloadOut<'a, S> {
+    shell: SavedShell,
+    model: &'a S,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PayloadIn<S> {
+    shell: SavedShell,
+    model: S,
+}
+
+fn crc(header: &[u8], payload: &[u8]) -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    h.update(header);
+    h.update(payload);
+    h.finalize()
+}
+
+/// Wrap a payload in the frame described above.
+pub fn frame(guid: u128, state_version: u32, payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(HEADER_LEN + payload.len());
+    out.extend_from_slice(SERIAL_MAGIC);
+    out.extend_from_slice(&SERIAL_VERSION.to_le_bytes());
+    out.extend_from_slice(&guid.to_le_bytes());
+    out.extend_from_slice(&state_version.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    let sum = crc(&out, payload);
+    out.extend_from_slice(&sum.to_le_bytes());
+    out.extend_from_slice(payload);
+    out
+}
+
+fn le<const N: usize>(b: &[u8], at: usize) -> [u8; N] {
+    let mut a = [0u8; N];
+    a.copy_from_slice(&b[at..at + N]);
+    a
+}
+
+/// Check the frame of `bytes` (every check named in the module documentation up to the
+/// state version) and return its payload.
+pub fn unframe(guid: u128, state_version: u32, bytes: &[u8]) -> Result<&[u8], Fmi2Err> {
+    let bad = |m: String| Err(Fmi2Err::error(format!("serialized FMU state {m}")));
+    if bytes.len() < HEADER_LEN {
+        if bytes.len() >= SERIAL_MAGIC.len() && &bytes[..8] != SERIAL_MAGIC {
+            return bad("rejected: bad magic bytes (not an FMU state of this FMU)".into());
+        }
+        return bad(format!(
+            "is truncated: {} bytes, but the header alone has {HEADER_LEN}",
+            bytes.len()
+        ));
+    }
+    if &bytes[..8] != SERIAL_MAGIC {
+        return bad("rejected: bad magic bytes (not an FMU state of this FMU)".into());
+    }
+    let version = u32::from_le_bytes(le(bytes, 8));
+    if version != SERIAL_VERSION {
+        return bad(format!(
+            "rejected: frame layout version {version}, this FMU reads version {SERIAL_VERSION}"
+        ));
+    }
+    let n = u64::from_le_bytes(le(bytes, 32));
+    let present = (bytes.len() - HEADER_LEN) as u64;
+    if n > present {
+        return bad(format!(
+            "is truncated: the header announces {n} payload bytes but only {present} follow"
+        ));
+    }
+    if n < present {
+        return bad(format!(
+            "rejected: {} unexpected bytes after the {n} payload bytes the header announces",
+            present - n
+        ));
+    }
+    let payload = &bytes[HEADER_LEN..];
+    let stored = u32::from_le_bytes(le(bytes, CRC_AT));
+    let computed = crc(&bytes[..CRC_AT], payload);
+    if stored != computed {
+        return bad(format!(
+            "is corrupted: CRC-32 checksum mismatch (stored {stored:#010x}, computed {computed:#010x})"
+        ));
+    }
+    let g = u128::from_le_bytes(le(bytes, 12));
+    if g != guid {
+        return bad(format!(
+            "was made by a different FMU: GUID {} instead of {}",
+            crate::guid::format_guid(g),
+            crate::guid::format_guid(guid)
+        ));
+    }
+    let sv = u32::from_le_bytes(le(bytes, 28));
+    if sv != state_version {
+        return bad(format!(
+            "rejected: the model's state has version {sv}, this build of the FMU reads version \
+             {state_version} (saved by another version of the FMU)"
+        ));
+    }
+    Ok(payload)
+}
+
+/// Serialize shell state and model (through [`FmuModel::save_state`]) into the form above.
 pub fn serialize<M: FmuModel>(
     guid: u128,
     shell: &ShellState,
     model: &M,
 ) -> Result<Vec<u8>, Fmi2Err> {
-    let mut payload = Vec::new();
-    model.serialize_state(&mut payload)?;
-    let mut out = Vec::with_capacity(payload.len() + 96);
-    out.extend_from_slice(SERIAL_MAGIC);
-    out.put_u32(SERIAL_VERSION);
-    out.extend_from_slice(&guid.to_le_bytes());
-    out.put_u8(shell.mode.to_byte());
-    out.put_f64(shell.time);
-    out.put_f64(shell.start_time);
-    put_opt(&mut out, shell.stop_time);
-    put_opt(&mut out, shell.tolerance);
-    out.put_bytes(&payload);
-    let sum = fnv1a_64(&out);
-    out.put_u64(sum);
-    Ok(out)
-}
-
-fn put_opt(out: &mut Vec<u8>, x: Option<f64>) {
-    out.put_bool(x.is_some());
-    out.put_f64(x.unwrap_or(0.0));
-}
-
-fn get_opt(r: &mut ByteReader<'_>) -> Result<Option<f64>, Fmi2Err> {
-    let some = r.bool()?;
-    let x = r.f64()?;
-    Ok(some.then_some(x))
+    let state = model.save_state()?;
+    let payload = PayloadOut {
+        shell: SavedShell {
+            mode: shell.mode.to_byte(),
+            time: shell.time,
+            start_time: shell.start_time,
+            stop_time: shell.stop_time,
+            tolerance: shell.tolerance,
+        },
+        model: &state,
+    };
+    let mut bytes = Vec::new();
+    ciborium::into_writer(&payload, &mut bytes)
+        .map_err(|e| Fmi2Err::error(format!("the model's state cannot be encoded: {e}")))?;
+    Ok(frame(guid, M::STATE_VERSION, &bytes))
 }
 
 /// A deserialized shell state must be one the shell could have saved: the checksum only
@@ -144,62 +260,43 @@ fn validate_shell(
 }
 
 /// Validate and decode bytes from [`serialize`]. `template` is a clone of the live model,
-/// overwritten by [`FmuModel::deserialize_state`].
+/// given the decoded state by [`FmuModel::restore_state`] (which validates it).
 pub fn deserialize<M: FmuModel>(
     guid: u128,
     bytes: &[u8],
     mut template: M,
 ) -> Result<(ShellState, M), Fmi2Err> {
-    if bytes.len() < SERIAL_MAGIC.len() || &bytes[..8] != SERIAL_MAGIC {
-        return Err(Fmi2Err::error(
-            "not a serialized FMU state of this FMU (bad magic bytes)",
-        ));
-    }
-    if bytes.len() < 8 + 8 {
-        return Err(Fmi2Err::error("serialized FMU state is truncated"));
-    }
-    let (body, sum) = bytes.split_at(bytes.len() - 8);
-    let expected = u64::from_le_bytes(sum.try_into().expect("8 bytes"));
-    if fnv1a_64(body) != expected {
-        return Err(Fmi2Err::error(
-            "serialized FMU state is corrupted (checksum mismatch)",
-        ));
-    }
-    let mut r = ByteReader::new(body);
-    r.take(8)?;
-    let version = r.u32()?;
-    if version != SERIAL_VERSION {
-        return Err(Fmi2Err::error(format!(
-            "serialized FMU state has layout version {version}, this FMU reads version {SERIAL_VERSION}"
-        )));
-    }
-    let g = u128::from_le_bytes(r.take(16)?.try_into().expect("16 bytes"));
-    if g != guid {
-        return Err(Fmi2Err::error(
-            "serialized FMU state was made by a different FMU (GUID mismatch)".to_string(),
-        ));
-    }
-    let mode_byte = r.u8()?;
-    let mode = Mode::from_byte(mode_byte).ok_or_else(|| {
+    let mut payload = unframe(guid, M::STATE_VERSION, bytes)?;
+    let decoded: PayloadIn<M::State> = ciborium::from_reader(&mut payload).map_err(|e| {
         Fmi2Err::error(format!(
-            "serialized FMU state has an invalid mode byte {mode_byte}"
+            "serialized FMU state: the payload does not decode as this FMU's state: {e}"
         ))
     })?;
-    let time = r.f64()?;
-    let start_time = r.f64()?;
-    let stop_time = get_opt(&mut r)?;
-    let tolerance = get_opt(&mut r)?;
-    let payload = r.bytes()?;
-    r.finish()?;
-    validate_shell(mode, time, start_time, stop_time, tolerance)?;
-    template.deserialize_state(payload)?;
+    if !payload.is_empty() {
+        return Err(Fmi2Err::error(format!(
+            "serialized FMU state: {} bytes left over after the decoded state",
+            payload.len()
+        )));
+    }
+    let s = decoded.shell;
+    let mode = Mode::from_byte(s.mode).ok_or_else(|| {
+        Fmi2Err::error(format!(
+            "serialized FMU state has an invalid mode byte {}",
+            s.mode
+        ))
+    })?;
+    validate_shell(mode, s.time, s.start_time, s.stop_time, s.tolerance)?;
+    template.restore_state(decoded.model).map_err(|e| Fmi2Err {
+        message: format!("serialized FMU state: the model refused it: {}", e.message),
+        ..e
+    })?;
     Ok((
         ShellState {
             mode,
-            time,
-            start_time,
-            stop_time,
-            tolerance,
+            time: s.time,
+            start_time: s.start_time,
+            stop_time: s.stop_time,
+            tolerance: s.tolerance,
         },
         template,
     ))

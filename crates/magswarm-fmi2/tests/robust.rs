@@ -4,9 +4,10 @@
 
 mod toy;
 
-use magswarm_fmi2::guid::fnv1a_64;
+use ciborium::Value;
 use magswarm_fmi2::host::Host;
-use magswarm_fmi2::{Fmi2Status, Mode};
+use magswarm_fmi2::snapshot;
+use magswarm_fmi2::{Fmi2Status, FmuModel, Mode};
 use toy::*;
 
 use Fmi2Status::{Error, Ok as OK, Warning};
@@ -137,8 +138,7 @@ fn a_resource_location_that_does_not_exist_is_a_warning() {
     );
 }
 
-/// Serialized state of an initialised instance, and a function that re-computes its
-/// checksum after an edit (a forger who knows the format).
+/// Serialized state of an initialised instance.
 fn serialized() -> Vec<u8> {
     let f = host("forger");
     assert_eq!(f.init(0.0), OK);
@@ -147,41 +147,126 @@ fn serialized() -> Vec<u8> {
     unsafe { f.serialize(st) }.unwrap()
 }
 
-fn reseal(mut b: Vec<u8>) -> Vec<u8> {
-    let n = b.len() - 8;
-    let sum = fnv1a_64(&b[..n]);
-    b[n..].copy_from_slice(&sum.to_le_bytes());
-    b
+fn guid() -> u128 {
+    magswarm_fmi2::guid::guid_u128(<Lag as FmuModel>::model_info())
 }
 
-// Offsets of the shell's header (see `snapshot`): magic 8, version 4, GUID 16, then mode.
-const MODE: usize = 28;
-const TIME: usize = 29;
-const START: usize = 37;
+/// Edit the decoded payload of a genuine state and seal it again: a forger who knows the
+/// format, so every frame check passes and only the content checks can refuse it.
+fn forge(good: &[u8], edit: impl FnOnce(&mut Value)) -> Vec<u8> {
+    let payload = snapshot::unframe(guid(), 1, good).expect("genuine frame");
+    let mut v: Value = ciborium::from_reader(payload).unwrap();
+    edit(&mut v);
+    let mut out = Vec::new();
+    ciborium::into_writer(&v, &mut out).unwrap();
+    snapshot::frame(guid(), 1, &out)
+}
+
+/// The field `key` of the CBOR map `v`.
+fn field<'a>(v: &'a mut Value, key: &str) -> &'a mut Value {
+    let Value::Map(m) = v else {
+        panic!("not a map: {v:?}")
+    };
+    &mut m
+        .iter_mut()
+        .find(|(k, _)| k.as_text() == Some(key))
+        .unwrap_or_else(|| panic!("no field {key}"))
+        .1
+}
+
+fn deserialize_fails(g: &H, what: &str, bytes: &[u8], message: &str) {
+    g.log().clear();
+    let (s, st) = g.deserialize(bytes);
+    assert_eq!(s, Error, "{what}");
+    assert!(st.is_null(), "{what}");
+    assert!(
+        g.log().has(Error, message),
+        "{what}: expected {message:?} in {:?}",
+        g.log().entries()
+    );
+    assert!(!g.log().has(Error, "panicked"), "{what}");
+    assert_eq!(g.reset(), OK);
+}
 
 #[test]
 fn forged_states_with_a_valid_checksum_are_validated() {
     let good = serialized();
     let g = host("victim");
     assert_eq!(g.deserialize(&good).0, OK, "the genuine state is accepted");
-    let mut cases: Vec<(&str, Vec<u8>)> = Vec::new();
-    let mut b = good.clone();
-    b[MODE] = 7; // Fatal
-    cases.push(("Fatal", reseal(b)));
-    let mut b = good.clone();
-    b[TIME..TIME + 8].copy_from_slice(&(-1.0f64).to_le_bytes());
-    cases.push(("before the start time", reseal(b)));
-    let mut b = good.clone();
-    b[START..START + 8].copy_from_slice(&f64::INFINITY.to_le_bytes());
-    cases.push(("non-finite", reseal(b)));
-    for (what, b) in cases {
-        g.log().clear();
+    let fatal = forge(&good, |v| {
+        *field(field(v, "shell"), "mode") = Value::Integer(Mode::Fatal.to_byte().into())
+    });
+    deserialize_fails(&g, "mode Fatal", &fatal, "mode Fatal");
+    let early = forge(&good, |v| {
+        *field(field(v, "shell"), "time") = Value::Float(-1.0)
+    });
+    deserialize_fails(&g, "before the start", &early, "before the start time");
+    let inf = forge(&good, |v| {
+        *field(field(v, "shell"), "start_time") = Value::Float(f64::INFINITY)
+    });
+    deserialize_fails(&g, "non-finite", &inf, "non-finite");
+    let tau = forge(&good, |v| {
+        *field(field(v, "model"), "tau") = Value::Float(-1.0)
+    });
+    deserialize_fails(&g, "model value", &tau, "the model refused it: tau = -1");
+    let extra = forge(&good, |v| {
+        let Value::Map(m) = field(v, "model") else {
+            panic!()
+        };
+        m.push((Value::Text("gain".into()), Value::Float(1.0)));
+    });
+    deserialize_fails(&g, "unknown field", &extra, "does not decode");
+    let wrong_type = forge(&good, |v| {
+        *field(field(v, "model"), "label") = Value::Float(1.0)
+    });
+    deserialize_fails(&g, "wrong type", &wrong_type, "does not decode");
+}
+
+#[test]
+fn corrupted_truncated_and_foreign_states_name_the_failed_check() {
+    let good = serialized();
+    let g = host("frames");
+    assert_eq!(g.deserialize(&good).0, OK);
+    let n = good.len();
+    // Every single-bit flip anywhere is caught (by the check guarding that byte).
+    for i in 0..n {
+        let mut b = good.clone();
+        b[i] ^= 0x10;
         let (s, st) = g.deserialize(&b);
-        assert_eq!(s, Error, "{what}");
-        assert!(st.is_null(), "{what}");
-        assert!(!g.log().at_least(Error).is_empty(), "{what}");
+        assert!(s == Error && st.is_null(), "flip at byte {i} accepted");
         assert_eq!(g.reset(), OK);
     }
+    let mut b = good.clone();
+    b[n - 3] ^= 0xff;
+    deserialize_fails(&g, "payload byte", &b, "CRC-32 checksum mismatch");
+    deserialize_fails(&g, "truncated", &good[..n - 5], "is truncated");
+    deserialize_fails(&g, "header only", &good[..20], "is truncated");
+    deserialize_fails(&g, "empty", &[], "is truncated");
+    let mut b = good.clone();
+    b.extend_from_slice(&[0, 0]);
+    deserialize_fails(&g, "trailing", &b, "2 unexpected bytes");
+    let mut b = good.clone();
+    b[0] = b'X';
+    deserialize_fails(&g, "magic", &b, "bad magic bytes");
+    let payload = snapshot::unframe(guid(), 1, &good).unwrap();
+    let b = snapshot::frame(guid() ^ 1, 1, payload);
+    deserialize_fails(&g, "GUID", &b, "different FMU");
+    let b = snapshot::frame(guid(), 2, payload);
+    deserialize_fails(&g, "state version", &b, "state has version 2");
+    let mut b = good.clone();
+    b[8..12].copy_from_slice(&1u32.to_le_bytes());
+    deserialize_fails(&g, "layout version", &b, "frame layout version 1");
+    let b = snapshot::frame(guid(), 1, b"not CBOR at all");
+    deserialize_fails(&g, "garbage payload", &b, "does not decode");
+    let mut p = payload.to_vec();
+    p.push(0);
+    let b = snapshot::frame(guid(), 1, &p);
+    deserialize_fails(&g, "left over", &b, "left over");
+    assert_eq!(
+        g.deserialize(&good).0,
+        OK,
+        "still accepts the genuine state"
+    );
 }
 
 /// Runs in a child process (see below): a panic inside the model, caught by the shell.

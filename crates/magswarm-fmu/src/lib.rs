@@ -7,17 +7,25 @@
 //!
 //! Units: SI on the interface (m, rad/s, T), as CONTRACTS.md fixes, with display units for
 //! people; the seed's own parameters keep the units of Table I (mm for C_i, Hz for f_ref).
+//!
+//! A long file that is one cohesive thing: the variable table, the FMU state type and the
+//! `FmuModel` implementation that maps those variables onto the plant (unit tests in
+//! `tests.rs`).
+
+// The fmi2* forwarders that `export_fmi2!` expands here are unsafe fns: every unsafe call
+// in them has its own block and SAFETY comment.
+#![deny(unsafe_op_in_unsafe_fn)]
 
 use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 
-use magswarm_fmi2::bytes::{ByteReader, PutBytes};
 use magswarm_fmi2::units;
 use magswarm_fmi2::{
     Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo, Start,
     UnitDefinition, Variable, XmlOptions,
 };
-use magswarm_model::{Confinement, Model, Plant};
+use magswarm_model::{Confinement, Model, Plant, PlantSnapshot};
+use serde::{Deserialize, Serialize};
 
 /// Model identifier (file name of the shared library and of the FMU).
 pub const MODEL_IDENTIFIER: &str = "MagSwarm";
@@ -322,6 +330,32 @@ pub struct MagSwarm {
     outside: bool,
 }
 
+/// The serialized FMU state of [`MagSwarm`]: everything that changes while it runs (the
+/// defaults read from `resources/` are the instance's and stay out). The shell encodes it;
+/// [`MagSwarm::restore_state`](FmuModel::restore_state) validates it like set values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagSwarmState {
+    /// Parameters in force.
+    pub model: Model,
+    /// Value of the `model_file` parameter.
+    pub model_file: String,
+    /// Input z_m \[m\].
+    pub z_m: f64,
+    /// Input omega_m \[rad/s\].
+    pub omega: f64,
+    /// Parameter `settle_at_start`.
+    pub settle_at_start: bool,
+    /// Parameters `r1_start`, `r2_start` \[m\].
+    pub r_start: [f64; 2],
+    /// Tolerance from `fmi2SetupExperiment`.
+    pub rtol: Option<f64>,
+    /// Inputs outside the envelope (warned once per excursion).
+    pub outside: bool,
+    /// The plant, once built (its state, time and integrator memory).
+    pub plant: Option<PlantSnapshot>,
+}
+
 impl MagSwarm {
     /// A fresh instance whose defaults come from `resource_dir/model.json` if present.
     pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarm, Fmi2Err> {
@@ -507,14 +541,23 @@ impl MagSwarm {
         Ok(())
     }
 
-    /// Jacobian row of an unknown with respect to the knowns z_m, omega_m, r1, r2 (SI).
+    /// Jacobian row of an unknown with respect to the knowns z_m, omega_m, r1, r2 (SI), where
+    /// the knowns r1, r2 are the continuous state: the radii of ODE (4), which `der_r1`,
+    /// `der_r2` differentiate. The outputs `r1`, `r2` are what `fmi2GetReal` returns, the
+    /// *observed* radii ([`Plant::outputs`]): with `formation_lag` the state enters them with
+    /// the weight `1 - share` (the slow mode, a state of its own, does not move with it), and
+    /// `particle_drift` and `camera_bias` scale them by the observation gain (offsets have no
+    /// derivative). Without effects both factors are 1 and the outputs are the state.
     fn jac_row(&mut self, unknown: u32) -> Result<[f64; 4], Fmi2Err> {
         let plant = self.plant();
         let sp = plant.outputs().steady;
         let f = sp.field;
+        let effects = &plant.model().effects;
+        let (gain, _) = effects.observation(plant.time());
+        let own = 1.0 - effects.formation_lag.map_or(0.0, |fl| fl.share);
         Ok(match unknown {
-            vr::R1 => [0.0, 0.0, 1.0, 0.0],
-            vr::R2 => [0.0, 0.0, 0.0, 1.0],
+            vr::R1 => [0.0, 0.0, gain[0] * own, 0.0],
+            vr::R2 => [0.0, 0.0, 0.0, gain[1] * own],
             vr::R1_SS => [sp.jac[0][0] * 1e-3, sp.jac[0][1] * 1e-3, 0.0, 0.0],
             vr::R2_SS => [sp.jac[1][0] * 1e-3, sp.jac[1][1] * 1e-3, 0.0, 0.0],
             vr::S_X => [sp.ds[0][0], sp.ds[0][1], 0.0, 0.0],
@@ -736,62 +779,39 @@ impl FmuModel for MagSwarm {
         }
     }
 
-    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
-        let json = serde_json::to_string(&self.model)
-            .map_err(|e| Fmi2Err::error(format!("serialize model: {e}")))?;
-        out.put_str(&json);
-        out.put_str(&self.model_file);
-        out.put_f64(self.z_m);
-        out.put_f64(self.omega);
-        out.put_bool(self.settle_at_start);
-        out.put_f64(self.r_start[0]);
-        out.put_f64(self.r_start[1]);
-        out.put_bool(self.rtol.is_some());
-        out.put_f64(self.rtol.unwrap_or(0.0));
-        out.put_bool(self.outside);
-        match &self.plant {
-            None => out.put_bool(false),
-            Some(p) => {
-                out.put_bool(true);
-                let snap = serde_json::to_string(&p.snapshot())
-                    .map_err(|e| Fmi2Err::error(format!("serialize plant: {e}")))?;
-                out.put_str(&snap);
-            }
-        }
-        Ok(())
+    type State = MagSwarmState;
+
+    fn save_state(&self) -> Result<MagSwarmState, Fmi2Err> {
+        Ok(MagSwarmState {
+            model: self.model.clone(),
+            model_file: self.model_file.clone(),
+            z_m: self.z_m,
+            omega: self.omega,
+            settle_at_start: self.settle_at_start,
+            r_start: self.r_start,
+            rtol: self.rtol,
+            outside: self.outside,
+            plant: self.plant.as_ref().map(Plant::snapshot),
+        })
     }
 
-    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
-        let mut rd = ByteReader::new(bytes);
-        let json = rd.str()?;
-        let model = Model::from_json_str(json, "FMU state")
-            .map_err(|e| Fmi2Err::error(format!("deserialize: {e}")))?;
-        let model_file = rd.str()?.to_string();
-        let z_m = rd.f64()?;
-        let omega = rd.f64()?;
-        let settle = rd.bool()?;
-        let r_start = [rd.f64()?, rd.f64()?];
-        let has_rtol = rd.bool()?;
-        let rtol = rd.f64()?;
-        let outside = rd.bool()?;
-        let plant = if rd.bool()? {
-            let snap: magswarm_model::PlantSnapshot = serde_json::from_str(rd.str()?)
-                .map_err(|e| Fmi2Err::error(format!("deserialize: plant state: {e}")))?;
-            Some(Plant::from_snapshot(model.clone(), &snap))
-        } else {
-            None
-        };
-        rd.finish()?;
+    fn restore_state(&mut self, s: MagSwarmState) -> Result<(), Fmi2Err> {
+        s.model
+            .validate()
+            .map_err(|e| Fmi2Err::error(format!("FMU state: model: {e}")))?;
         let mut candidate = self.clone();
-        candidate.model = model;
-        candidate.model_file = model_file;
-        candidate.z_m = z_m;
-        candidate.omega = omega;
-        candidate.settle_at_start = settle;
-        candidate.r_start = r_start;
-        candidate.rtol = has_rtol.then_some(rtol);
-        candidate.outside = outside;
-        candidate.plant = plant;
+        candidate.plant = s
+            .plant
+            .as_ref()
+            .map(|snap| Plant::from_snapshot(s.model.clone(), snap));
+        candidate.model = s.model;
+        candidate.model_file = s.model_file;
+        candidate.z_m = s.z_m;
+        candidate.omega = s.omega;
+        candidate.settle_at_start = s.settle_at_start;
+        candidate.r_start = s.r_start;
+        candidate.rtol = s.rtol;
+        candidate.outside = s.outside;
         candidate.validate_restored()?;
         *self = candidate;
         Ok(())
@@ -831,88 +851,4 @@ magswarm_fmi2::export_describe!(|json: Option<&str>| {
 });
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn xml_is_generated_and_names_every_contract_variable() {
-        let xml = model_description(&Model::paper(), None);
-        for name in [
-            "z_m",
-            "omega_m",
-            "r1",
-            "r2",
-            "r1_ss",
-            "r2_ss",
-            "S_x",
-            "S_y",
-            "B",
-            "g_z",
-            "k_xx",
-            "k_yy",
-            "model_file",
-            "C_1",
-            "C_2",
-            "a_K1",
-            "a_K2",
-            "alpha_1",
-            "alpha_2",
-            "gamma_1",
-            "gamma_2",
-            "s_0",
-            "a_G",
-            "rho",
-            "N",
-            "q",
-            "a_P",
-            "mu_P",
-            "c_P",
-            "q_P",
-            "f_ref",
-            "B_ref",
-            "K_b1",
-            "K_b2",
-            "beta",
-            "r1_min",
-            "r2_min",
-            "K_tau",
-            "p",
-            "s_B",
-            "K_d1",
-            "K_d2",
-        ] {
-            assert!(xml.contains(&format!("name=\"{name}\"")), "missing {name}");
-        }
-        assert!(xml.contains("modelIdentifier=\"MagSwarm\""));
-    }
-
-    #[test]
-    fn baked_model_changes_start_values_not_guid() {
-        let mut m = Model::paper();
-        m.steady.C_1 = 8.5;
-        let a = model_description(&Model::paper(), None);
-        let b = model_description(&m, None);
-        assert_ne!(a, b);
-        let guid = |x: &str| {
-            x.split("guid=\"")
-                .nth(1)
-                .unwrap()
-                .split('"')
-                .next()
-                .unwrap()
-                .to_string()
-        };
-        assert_eq!(guid(&a), guid(&b));
-        assert!(b.contains("start=\"8.5\""));
-    }
-
-    #[test]
-    fn parameter_accessors_round_trip() {
-        let mut m = Model::paper();
-        for (i, p) in PARAMS.iter().enumerate() {
-            let v = (p.get)(&m) + 0.001 * (i as f64 + 1.0);
-            (p.set)(&mut m, v);
-            assert_eq!((p.get)(&m), v, "{}", p.name);
-        }
-    }
-}
+mod tests;

@@ -3,7 +3,7 @@
 
 use magswarm_fmi2::host::Host;
 use magswarm_fmi2::{Fmi2Status, FmuModel, Mode};
-use magswarm_fmu::{vr, MagSwarm};
+use magswarm_fmu::{vr, MagSwarm, MagSwarmState};
 
 use Fmi2Status::{Error, Ok as OK};
 
@@ -65,51 +65,20 @@ fn every_absurd_finite_input_keeps_outputs_finite() {
     }
 }
 
-/// The payload of a serialized state with one field replaced (layout of `serialize_state`).
-fn forged(good: &[u8], field: &str, value: f64) -> Vec<u8> {
-    use magswarm_fmi2::bytes::{ByteReader, PutBytes};
-    let mut r = ByteReader::new(good);
-    let json = r.str().unwrap().to_string();
-    let file = r.str().unwrap().to_string();
-    let mut xs = [0.0; 2];
-    for x in &mut xs {
-        *x = r.f64().unwrap();
-    }
-    let settle = r.bool().unwrap();
-    let mut rs = [r.f64().unwrap(), r.f64().unwrap()];
-    let _has_rtol = r.bool().unwrap();
-    let mut rtol = r.f64().unwrap();
-    let outside = r.bool().unwrap();
-    let has_plant = r.bool().unwrap();
-    let mut snap: serde_json::Value = if has_plant {
-        serde_json::from_str(r.str().unwrap()).unwrap()
-    } else {
-        serde_json::Value::Null
-    };
+/// A state with one field replaced by a value the FMU would refuse if it were set.
+fn forged(good: &MagSwarmState, field: &str, value: f64) -> MagSwarmState {
+    let mut s = good.clone();
+    let plant = s.plant.as_mut().expect("the plant runs");
     match field {
-        "z_m" => xs[0] = value,
-        "r1_start" => rs[0] = value,
-        "rtol" => rtol = value,
-        "plant.r" => snap["r"] = serde_json::json!([value, value]),
-        "plant.h_next" => snap["h_next"] = serde_json::json!(value),
+        "z_m" => s.z_m = value,
+        "r1_start" => s.r_start[0] = value,
+        "rtol" => s.rtol = Some(value),
+        "plant.r" => plant.r = [value, value],
+        "plant.h_next" => plant.h_next = value,
+        "model.C_1" => s.model.steady.C_1 = value,
         _ => unreachable!(),
     }
-    let mut out = Vec::new();
-    out.put_str(&json);
-    out.put_str(&file);
-    out.put_f64(xs[0]);
-    out.put_f64(xs[1]);
-    out.put_bool(settle);
-    out.put_f64(rs[0]);
-    out.put_f64(rs[1]);
-    out.put_bool(field == "rtol");
-    out.put_f64(rtol);
-    out.put_bool(outside);
-    out.put_bool(has_plant);
-    if has_plant {
-        out.put_str(&snap.to_string());
-    }
-    out
+    s
 }
 
 #[test]
@@ -118,18 +87,18 @@ fn forged_states_are_validated_like_set_values() {
     let mut ctx = magswarm_fmi2::Ctx::silent();
     m.exit_initialization_mode(&mut ctx).unwrap();
     m.do_step(&mut ctx, 0.0, 0.1).unwrap();
-    let mut good = Vec::new();
-    m.serialize_state(&mut good).unwrap();
-    assert!(m.clone().deserialize_state(&good).is_ok());
+    let good = m.save_state().unwrap();
+    assert!(m.clone().restore_state(good.clone()).is_ok());
     for (field, value) in [
         ("z_m", -1.0),
         ("r1_start", -1.0),
         ("rtol", 5.0),
         ("plant.r", -1e300),
         ("plant.h_next", -1.0),
+        ("model.C_1", f64::NAN),
     ] {
         let mut victim = m.clone();
-        let r = victim.deserialize_state(&forged(&good, field, value));
+        let r = victim.restore_state(forged(&good, field, value));
         assert!(r.is_err(), "{field} = {value} accepted");
         assert_eq!(
             victim.model(),
@@ -160,4 +129,59 @@ fn a_packaged_model_missing_from_the_resource_location_is_an_error() {
     assert!(MagSwarm::with_resources(None, Some(&packaged)).is_err());
     assert!(MagSwarm::with_resources(Some(&packaged), Some(&packaged)).is_ok());
     assert!(MagSwarm::with_resources(Some(&elsewhere), None).is_ok());
+}
+
+/// The plant's state through the C API: it replays bit-identically in another instance,
+/// and damaged or foreign bytes are refused with the failed check named in the log.
+#[test]
+fn serialized_plant_states_replay_and_damaged_ones_are_refused() {
+    let a = host();
+    assert_eq!(a.init(0.0), OK);
+    assert_eq!(a.set_real(vr::Z_M, 0.0135), OK);
+    assert_eq!(a.step(0.0, 0.3), OK);
+    let (_, st) = a.get_state();
+    // SAFETY: `st` was handed out by `a` and not freed.
+    let bytes = unsafe { a.serialize(st) }.unwrap();
+    let b = host();
+    let (s, restored) = b.deserialize(&bytes);
+    assert_eq!(s, OK, "{:?}", b.log().entries());
+    // SAFETY: `restored` was handed out by `b`.
+    assert_eq!(unsafe { b.set_state(restored) }, OK);
+    assert_eq!(a.step(0.3, 0.2), OK);
+    assert_eq!(b.step(0.3, 0.2), OK);
+    assert_eq!(
+        a.get_real(vr::R1).1.to_bits(),
+        b.get_real(vr::R1).1.to_bits()
+    );
+    let guid = magswarm_fmi2::guid::guid_u128(MagSwarm::model_info());
+    let payload = magswarm_fmi2::snapshot::unframe(guid, MagSwarm::STATE_VERSION, &bytes)
+        .unwrap()
+        .to_vec();
+    let mut flipped = bytes.clone();
+    let mid = bytes.len() / 2;
+    flipped[mid] ^= 1;
+    for (what, bad, message) in [
+        ("truncated", bytes[..bytes.len() - 1].to_vec(), "truncated"),
+        ("bit flip", flipped, "CRC-32 checksum mismatch"),
+        (
+            "another FMU",
+            magswarm_fmi2::snapshot::frame(!guid, MagSwarm::STATE_VERSION, &payload),
+            "different FMU",
+        ),
+        (
+            "another state version",
+            magswarm_fmi2::snapshot::frame(guid, MagSwarm::STATE_VERSION + 1, &payload),
+            "this build of the FMU reads version",
+        ),
+    ] {
+        b.log().clear();
+        let (s, st) = b.deserialize(&bad);
+        assert_eq!(s, Error, "{what}");
+        assert!(st.is_null(), "{what}");
+        assert!(
+            b.log().has(Error, message),
+            "{what}: {:?}",
+            b.log().entries()
+        );
+    }
 }

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use magswarm_fmi2::host::Host;
 use magswarm_fmi2::{Fmi2Status, Mode};
-use magswarm_pid_fmu::{vr, MagSwarmPid, PARAMS};
+use magswarm_pid_fmu::{vr, MagSwarmPid, MagSwarmPidState, RunningState, PARAMS};
 
 use Fmi2Status::{Error, Ok as OK};
 
@@ -152,6 +152,49 @@ fn absurd_limits_are_validation_errors_not_panics() {
     }
 }
 
+/// The running controller's part of a state.
+fn run(s: &mut MagSwarmPidState) -> &mut RunningState {
+    s.running.as_mut().expect("the controller runs")
+}
+
+/// Genuine-looking controller states with absurd content (what a forger who knows the
+/// format writes: the shell's checksum passes, only the content checks can refuse them).
+fn forgeries(good: &MagSwarmPidState) -> Vec<(&'static str, MagSwarmPidState)> {
+    let edit = |f: &dyn Fn(&mut MagSwarmPidState)| {
+        let mut s = good.clone();
+        f(&mut s);
+        s
+    };
+    vec![
+        ("start time -1e308", edit(&|s| s.t0 = -1e308)),
+        ("start time 1e308", edit(&|s| s.t0 = 1e308)),
+        (
+            "controller sample time 1e-9",
+            edit(&|s| run(s).cfg.sample_time_s = 1e-9),
+        ),
+        (
+            "configured sample time 1e-9",
+            edit(&|s| s.base_cfg.sample_time_s = 1e-9),
+        ),
+        (
+            "integrator state -1e300",
+            edit(&|s| {
+                let mut v = serde_json::to_value(&run(s).controller).unwrap();
+                v["integ"] = serde_json::json!([-1e300, -1e300]);
+                run(s).controller = serde_json::from_value(v).unwrap();
+            }),
+        ),
+        ("command -inf", edit(&|s| run(s).u[0] = f64::NEG_INFINITY)),
+        ("sample count u64::MAX", edit(&|s| run(s).k = u64::MAX)),
+        ("measured r1 1e308", edit(&|s| s.y[0] = 1e308)),
+        (
+            "parameter index 9999",
+            edit(&|s| s.overrides.push((9999, 1.0))),
+        ),
+        ("model C_1 NaN", edit(&|s| s.model.steady.C_1 = f64::NAN)),
+    ]
+}
+
 #[test]
 fn forged_controller_states_are_refused() {
     use magswarm_fmi2::FmuModel;
@@ -160,13 +203,12 @@ fn forged_controller_states_are_refused() {
     m.setup_experiment(&mut ctx, None, 0.0, None).unwrap();
     m.exit_initialization_mode(&mut ctx).unwrap();
     m.do_step(&mut ctx, 0.0, 0.5).unwrap();
-    let mut good = Vec::new();
-    m.serialize_state(&mut good).unwrap();
-    assert!(m.clone().deserialize_state(&good).is_ok());
-    for (what, forged) in magswarm_pid_fmu::forge_for_tests(&good) {
+    let good = m.save_state().unwrap();
+    assert!(m.clone().restore_state(good.clone()).is_ok());
+    for (what, forged) in forgeries(&good) {
         let mut victim = m.clone();
         let t0 = Instant::now();
-        let r = victim.deserialize_state(&forged);
+        let r = victim.restore_state(forged);
         let r = r.and_then(|_| victim.do_step(&mut ctx, 0.5, 0.05));
         assert!(r.is_err(), "{what} was accepted");
         assert!(t0.elapsed() < Duration::from_secs(2), "{what}");

@@ -53,6 +53,19 @@ pub struct RobotRecord {
     pub heartbeats: u64,
     /// Times the watchdog stopped the program.
     pub watchdog_stops: u32,
+    /// The last time the watchdog fired: the heartbeat gap it saw then, and the gap at the
+    /// check before (which did not fire), in seconds. So a test can see that it fired at its first
+    /// check past the period, however late the checks ran on a loaded machine.
+    pub watchdog_fired: Option<WatchdogFiring>,
+}
+
+/// Heartbeat gaps around a watchdog stop (see [`RobotRecord::watchdog_fired`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WatchdogFiring {
+    /// Gap since the last heartbeat when the watchdog fired, in seconds (> the period).
+    pub gap_s: f64,
+    /// Gap at the previous check, in seconds (<= the period, or it would have fired then).
+    pub previous_gap_s: f64,
 }
 
 struct Sim {
@@ -69,6 +82,8 @@ struct Sim {
     rate: f64,
     watchdog_hz: f64,
     last_heartbeat: Option<Instant>,
+    /// Heartbeat gap at the watchdog's last check that did not fire, in seconds.
+    last_watchdog_gap_s: f64,
     first_start: Option<Instant>,
     registers: HashMap<String, Value>,
     writers: HashMap<String, u64>,
@@ -118,9 +133,16 @@ impl Sim {
         if playing && self.watchdog_hz > 0.0 {
             let period = Duration::from_secs_f64(1.0 / self.watchdog_hz);
             if let Some(h) = self.last_heartbeat {
-                if now.duration_since(h) > period {
+                let gap = now.duration_since(h);
+                if gap > period {
                     self.runtime_state = runtime_state::STOPPED;
                     self.record.watchdog_stops += 1;
+                    self.record.watchdog_fired = Some(WatchdogFiring {
+                        gap_s: gap.as_secs_f64(),
+                        previous_gap_s: self.last_watchdog_gap_s,
+                    });
+                } else {
+                    self.last_watchdog_gap_s = gap.as_secs_f64();
                 }
             }
         }
@@ -292,6 +314,7 @@ impl UrEmulator {
             rate: cfg.z_rate_m_s,
             watchdog_hz: cfg.watchdog_hz,
             last_heartbeat: None,
+            last_watchdog_gap_s: 0.0,
             first_start: None,
             registers: HashMap::new(),
             writers: HashMap::new(),
@@ -318,46 +341,30 @@ impl UrEmulator {
                 })
             }));
         }
-        let dashboard = match dashboard_port {
-            Some(p) => {
-                let l = TcpListener::bind((host, p))?;
-                let a = l.local_addr()?;
-                l.set_nonblocking(true)?;
-                let (sim, stop) = (sim.clone(), stop.clone());
-                threads.push(std::thread::spawn(move || {
-                    accept_loop(l, stop.clone(), move |s| {
-                        let sim = sim.clone();
-                        std::thread::spawn(move || dashboard_connection(s, sim));
-                    })
-                }));
-                Some(a)
-            }
-            None => None,
-        };
-        let secondary = match script_port {
-            Some(p) => {
-                let l = TcpListener::bind((host, p))?;
-                let a = l.local_addr()?;
-                l.set_nonblocking(true)?;
-                let (sim, stop) = (sim.clone(), stop.clone());
-                threads.push(std::thread::spawn(move || {
-                    accept_loop(l, stop.clone(), move |s| {
-                        let sim = sim.clone();
-                        std::thread::spawn(move || script_connection(s, sim));
-                    })
-                }));
-                Some(a)
-            }
-            None => None,
-        };
+        let dashboard = dashboard_port
+            .map(|p| serve(host, p, &sim, &stop, &mut threads, dashboard_connection))
+            .transpose()?;
+        let secondary = script_port
+            .map(|p| serve(host, p, &sim, &stop, &mut threads, script_connection))
+            .transpose()?;
         {
-            // Physics at 500 Hz.
+            // Physics at 500 Hz, on the wall clock: each pass integrates the time that really
+            // passed (in steps of at most 2 ms), so the robot moves at its rate and its lag
+            // however late a loaded machine runs this thread.
             let (sim, stop, down) = (sim.clone(), stop.clone(), link_down.clone());
             threads.push(std::thread::spawn(move || {
                 let dt = 0.002;
+                let mut last = Instant::now();
                 while !stop.load(Ordering::SeqCst) {
                     if let Ok(mut s) = sim.lock() {
-                        s.tick(dt);
+                        let now = Instant::now();
+                        let mut left = now.duration_since(last).as_secs_f64();
+                        last = now;
+                        while left > 0.0 {
+                            let h = left.min(dt);
+                            s.tick(h);
+                            left -= h;
+                        }
                         if let (Some(t), Some(d)) = (s.first_start, s.cfg.drop_link_after_s) {
                             if t.elapsed().as_secs_f64() >= d {
                                 down.store(true, Ordering::SeqCst);
@@ -441,10 +448,45 @@ fn accept_loop(l: TcpListener, stop: Arc<AtomicBool>, mut on: impl FnMut(TcpStre
     }
 }
 
+/// Listen on `host:port` and run `connection` on its own thread for every client (the
+/// dashboard and the secondary interface); the accept loop joins `threads`.
+fn serve(
+    host: &str,
+    port: u16,
+    sim: &Arc<Mutex<Sim>>,
+    stop: &Arc<AtomicBool>,
+    threads: &mut Vec<std::thread::JoinHandle<()>>,
+    connection: fn(TcpStream, Arc<Mutex<Sim>>),
+) -> std::io::Result<SocketAddr> {
+    let l = TcpListener::bind((host, port))?;
+    let a = l.local_addr()?;
+    l.set_nonblocking(true)?;
+    let (sim, stop) = (sim.clone(), stop.clone());
+    threads.push(std::thread::spawn(move || {
+        accept_loop(l, stop, move |s| {
+            let sim = sim.clone();
+            std::thread::spawn(move || connection(s, sim));
+        })
+    }));
+    Ok(a)
+}
+
+/// An output recipe: its id, variable names and the period of its data packages.
+#[derive(Clone)]
 struct OutRecipe {
     id: u8,
     names: Vec<String>,
     period: Duration,
+}
+
+/// The variable names of a recipe request: comma-separated, trimmed; empty entries are
+/// dropped (ur_rtde ends the list with a comma, which the controller ignores).
+fn recipe_names(bytes: &[u8]) -> Vec<String> {
+    String::from_utf8_lossy(bytes)
+        .split(',')
+        .map(|x| x.trim().to_string())
+        .filter(|x| !x.is_empty())
+        .collect()
 }
 
 fn rtde_connection(
@@ -528,12 +570,7 @@ fn rtde_connection(
                         continue;
                     }
                     let freq = f64::from_be_bytes(p[..8].try_into().unwrap());
-                    let names: Vec<String> = String::from_utf8_lossy(&p[8..])
-                        .split(',')
-                        .map(|x| x.trim().to_string())
-                        // ur_rtde ends the list with a comma; the controller ignores it.
-                        .filter(|x| !x.is_empty())
-                        .collect();
+                    let names = recipe_names(&p[8..]);
                     let types: Vec<String> = names
                         .iter()
                         .map(|n| {
@@ -543,8 +580,12 @@ fn rtde_connection(
                         })
                         .collect();
                     let ok = types.iter().all(|t| t != "NOT_FOUND") && freq > 0.0 && freq <= 500.0;
-                    let id = if ok { outputs.len() as u8 + 1 } else { 0 };
-                    if ok {
+                    // Output ids are 1..=255: a recipe past the last id is refused (id 0).
+                    let id = match u8::try_from(outputs.len() + 1) {
+                        Ok(id) if ok => id,
+                        _ => 0,
+                    };
+                    if id != 0 {
                         outputs.push(OutRecipe {
                             id,
                             names,
@@ -558,15 +599,12 @@ fn rtde_connection(
                     }
                 }
                 pkt::SETUP_INPUTS => {
-                    let names: Vec<String> = String::from_utf8_lossy(&p)
-                        .split(',')
-                        .map(|x| x.trim().to_string())
-                        // ur_rtde ends the list with a comma; the controller ignores it.
-                        .filter(|x| !x.is_empty())
-                        .collect();
+                    let names = recipe_names(&p);
                     let mut types = Vec::new();
                     let mut reply = Vec::new();
-                    {
+                    // Checked and claimed under one lock, so two clients cannot both get a
+                    // register.
+                    let id = {
                         let mut s = sim.lock().unwrap();
                         for n in &names {
                             let t = proto::variable_type(n).filter(|_| proto::is_input(n));
@@ -581,16 +619,19 @@ fn rtde_connection(
                                 }
                             }
                         }
-                        let ok = types.len() == names.len();
-                        if ok {
+                        // Input ids are 100..=255: a recipe past the last id is refused (0).
+                        let id = match u8::try_from(100 + inputs.len()) {
+                            Ok(id) if types.len() == names.len() => id,
+                            _ => 0,
+                        };
+                        if id != 0 {
                             for n in &names {
                                 s.writers.insert(n.clone(), conn);
                             }
                         }
-                    }
-                    let ok = types.len() == names.len();
-                    let id = if ok { 100 + inputs.len() as u8 } else { 0 };
-                    if ok {
+                        id
+                    };
+                    if id != 0 {
                         inputs.push((id, names, types));
                     }
                     let mut r = vec![id];
@@ -605,10 +646,7 @@ fn rtde_connection(
                         if let Ok(mut s) = sim.lock() {
                             s.first_start.get_or_insert(Instant::now());
                         }
-                        let recipes: Vec<(u8, Vec<String>, Duration)> = outputs
-                            .iter()
-                            .map(|o| (o.id, o.names.clone(), o.period))
-                            .collect();
+                        let recipes = outputs.clone();
                         let (w, sim2, st, cs, dn) = (
                             writer.clone(),
                             sim.clone(),
@@ -696,7 +734,7 @@ fn rtde_connection(
 fn output_loop(
     w: Arc<Mutex<TcpStream>>,
     sim: Arc<Mutex<Sim>>,
-    recipes: Vec<(u8, Vec<String>, Duration)>,
+    recipes: Vec<OutRecipe>,
     started: Arc<AtomicBool>,
     conn_stop: Arc<AtomicBool>,
     down: Arc<AtomicBool>,
@@ -710,15 +748,15 @@ fn output_loop(
             return;
         }
         let now = Instant::now();
-        for (k, (id, names, period)) in recipes.iter().enumerate() {
+        for (k, r) in recipes.iter().enumerate() {
             if now >= next[k] {
-                next[k] += *period;
+                next[k] += r.period;
                 if next[k] < now {
-                    next[k] = now + *period;
+                    next[k] = now + r.period;
                 }
-                let mut p = vec![*id];
+                let mut p = vec![r.id];
                 if let Ok(s) = sim.lock() {
-                    for n in names {
+                    for n in &r.names {
                         s.output(n).encode(&mut p);
                     }
                 }

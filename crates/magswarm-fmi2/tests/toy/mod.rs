@@ -4,7 +4,6 @@
 
 #![allow(dead_code)]
 
-use magswarm_fmi2::bytes::{ByteReader, PutBytes};
 use magswarm_fmi2::units;
 use magswarm_fmi2::{
     Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo,
@@ -150,6 +149,23 @@ fn live_add(name: &str, d: i64) {
 pub fn live(name: &str) -> i64 {
     let v = LIVE.lock().unwrap_or_else(|e| e.into_inner());
     v.iter().find(|(n, _)| n == name).map_or(0, |(_, k)| *k)
+}
+
+/// The lag's dynamic state (what `fmi2SerializeFMUstate` saves).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LagState {
+    pub u: f64,
+    pub y: f64,
+    pub tau: f64,
+    pub y0: f64,
+    pub k: f64,
+    pub omega: f64,
+    pub t: f64,
+    pub label: String,
+    pub n_steps: i32,
+    pub outside: bool,
+    pub panic_now: bool,
 }
 
 #[derive(Debug, PartialEq)]
@@ -319,37 +335,35 @@ impl FmuModel for Lag {
         }
     }
 
-    fn serialize_state(&self, out: &mut Vec<u8>) -> Result<(), Fmi2Err> {
-        for x in [
-            self.u, self.y, self.tau, self.y0, self.k, self.omega, self.t,
-        ] {
-            out.put_f64(x);
-        }
-        out.put_str(&self.label);
-        out.put_i32(self.n_steps);
-        out.put_bool(self.outside);
-        out.put_bool(self.panic_now);
-        Ok(())
+    type State = LagState;
+
+    fn save_state(&self) -> Result<LagState, Fmi2Err> {
+        Ok(LagState {
+            u: self.u,
+            y: self.y,
+            tau: self.tau,
+            y0: self.y0,
+            k: self.k,
+            omega: self.omega,
+            t: self.t,
+            label: self.label.clone(),
+            n_steps: self.n_steps,
+            outside: self.outside,
+            panic_now: self.panic_now,
+        })
     }
 
-    fn deserialize_state(&mut self, bytes: &[u8]) -> Result<(), Fmi2Err> {
-        let mut r = ByteReader::new(bytes);
-        let mut fs = [0.0; 7];
-        for f in &mut fs {
-            *f = r.f64()?;
+    fn restore_state(&mut self, s: LagState) -> Result<(), Fmi2Err> {
+        if !(s.tau > 0.0 && s.tau.is_finite()) {
+            return Err(Fmi2Err::error(format!("tau = {} must be positive", s.tau)));
         }
-        let label = r.str()?.to_string();
-        let n_steps = r.i32()?;
-        let outside = r.bool()?;
-        let panic_now = r.bool()?;
-        r.finish()?;
         [
             self.u, self.y, self.tau, self.y0, self.k, self.omega, self.t,
-        ] = fs;
-        self.label = label;
-        self.n_steps = n_steps;
-        self.outside = outside;
-        self.panic_now = panic_now;
+        ] = [s.u, s.y, s.tau, s.y0, s.k, s.omega, s.t];
+        self.label = s.label;
+        self.n_steps = s.n_steps;
+        self.outside = s.outside;
+        self.panic_now = s.panic_now;
         Ok(())
     }
 
