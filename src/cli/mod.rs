@@ -3,18 +3,21 @@
 //!
 //! Each command's arguments live in a module of their own here; the modules that run a command
 //! take its struct (re-exported at their old paths, e.g. `magswarm::identify::IdentifyArgs`).
-//! The `diagnose` and `lab` arguments are still declared beside their commands.
 
 mod control;
+mod diagnose;
 mod fmu;
 mod identify;
+mod lab;
 mod paper;
 mod predict;
 mod sweep;
 
 pub use control::{InverseArgs, LinFormat, LinearizeArgs};
+pub use diagnose::DiagnoseArgs;
 pub use fmu::FmuArgs;
 pub use identify::IdentifyArgs;
+pub use lab::LabArgs;
 pub use paper::PaperArgs;
 pub use predict::PredictArgs;
 pub use sweep::SweepArgs;
@@ -45,13 +48,13 @@ pub enum Cmd {
     /// Fit the model's parameters to measured logs.
     Identify(IdentifyArgs),
     /// The sim-to-real gap report: where the gap lies, which unmodelled effect causes it.
-    Diagnose(crate::diagnose::DiagnoseArgs),
+    Diagnose(DiagnoseArgs),
     /// Feedforward: the inputs (z_m, f) that give target radii (r1*, r2*).
     Inverse(InverseArgs),
     /// Linearise the plant at an operating point (A, B, C, D).
     Linearize(LinearizeArgs),
     /// Virtual lab: synthetic measurement logs from a truth model with chosen effects.
-    Lab(crate::lab::LabArgs),
+    Lab(LabArgs),
     /// Monte Carlo of the seed's closed-loop tracking scenario under parameter uncertainty.
     Sweep(SweepArgs),
 }

@@ -41,40 +41,9 @@ use candidates::{Augmented, Ctx};
 use data::{Dataset, PureError};
 use magswarm_model::Model;
 use std::io::IsTerminal;
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
-/// Arguments of `magswarm diagnose`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct DiagnoseArgs {
-    /// Measurement log (CONTRACTS.md format) the baseline and the candidates are fitted to.
-    #[arg(long)]
-    pub log: PathBuf,
-    /// A log withheld from every fit, used only to validate.
-    #[arg(long)]
-    pub withheld: Option<PathBuf>,
-    /// Prior model JSON (start values, fixed parameters, conventions; default: paper model).
-    #[arg(long)]
-    pub model: Option<PathBuf>,
-    /// Output directory (report.json, baseline.json, augmented.json, report.md, figures).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Significance level of the gap decision and of the attribution.
-    #[arg(long, default_value_t = 0.01)]
-    pub alpha: f64,
-    /// Cross-validation folds (groups of whole visits).
-    #[arg(long, default_value_t = 5)]
-    pub folds: usize,
-    /// Permutations of the structure tests.
-    #[arg(long, default_value_t = 499)]
-    pub permutations: usize,
-    /// Random seed (folds, permutations).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Skip bad rows (each reported on stderr) instead of failing.
-    #[arg(long)]
-    pub lenient: bool,
-}
+pub use crate::cli::DiagnoseArgs;
 
 /// Library face of the flags.
 #[derive(Debug, Clone, Copy)]
