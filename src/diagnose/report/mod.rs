@@ -1,0 +1,299 @@
+//! The gap report: `DIR/report.json` (fields fixed by CONTRACTS.md, plus evidence),
+//! `DIR/baseline.json`, `DIR/augmented.json`, `DIR/report.md` and its figures. Everything is
+//! rendered from the [`Diagnosis`]; nothing is recomputed here except the residual tables the
+//! figures draw. `report.md` is written by [`markdown`], its figures by [`figures`].
+
+use super::gap::{self, Kind, Region};
+use super::{candidates, Diagnosis, Rmse};
+use crate::plot::{self, Heatmap, Labels, Panel, Series};
+use anyhow::{Context, Result};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::Path;
+
+mod figures;
+mod markdown;
+
+use figures::plots;
+use markdown::markdown;
+
+const AXES: [&str; 2] = ["r1", "r2"];
+
+fn g(v: f64) -> String {
+    plot::fmt_g(v)
+}
+
+fn axes(v: [f64; 2]) -> Value {
+    json!({"r1": v[0], "r2": v[1]})
+}
+
+fn range(r: (f64, f64)) -> Value {
+    json!([r.0, r.1])
+}
+
+fn region_json(r: &Region) -> Value {
+    json!({
+        "output": AXES[r.axis],
+        "kind": match r.kind { Kind::Inputs => "inputs", Kind::Drift => "drift", Kind::Formation => "formation", Kind::Pattern => "inputs_pattern" },
+        "z_m_mm": range(r.z),
+        "f_hz": range(r.f),
+        "t_s": r.t.map(range),
+        "since_change_s": r.since.map(range),
+        "mean_residual_mm": r.mean,
+        "p_value": r.p,
+        "visits": r.visits.len(),
+    })
+}
+
+/// Pooled RMSE of two row sets.
+fn pool(a: Rmse, b: Option<Rmse>) -> [f64; 2] {
+    match b {
+        None => a.rmse,
+        Some(b) => {
+            let n = (a.n + b.n).max(1) as f64;
+            let f = |x: f64, y: f64| ((x * x * a.n as f64 + y * y * b.n as f64) / n).sqrt();
+            [f(a.rmse[0], b.rmse[0]), f(a.rmse[1], b.rmse[1])]
+        }
+    }
+}
+
+/// The parameters of a candidate's effect in a fitted model, as `name = value unit` strings.
+fn param_strings(name: &str, m: &magswarm_model::Model) -> Vec<String> {
+    candidates::model_params(name, m)
+        .into_iter()
+        .map(|(p, u, v)| format!("{p} = {} {u}", g(v)))
+        .collect()
+}
+
+/// The augmented model's own model file: the baseline's refitted parameters with every
+/// accepted effect switched on at its fitted values (runs as is in the FMU and `predict`).
+fn augmented_model(d: &Diagnosis) -> magswarm_model::Model {
+    let mut m = d.attr.augmented.full.aug.synced();
+    m.name = format!("{}-augmented", d.ident.model.name);
+    m.provenance = format!(
+        "magswarm diagnose {} from {}: baseline refitted with the accepted effects [{}] switched on",
+        env!("CARGO_PKG_VERSION"),
+        d.sources.join(", "),
+        d.attr.accepted.join(", ")
+    );
+    m
+}
+
+/// report.json as a value.
+pub fn json(d: &Diagnosis) -> Value {
+    let t = d.rmse_table();
+    let w = d.withheld.as_ref();
+    let effects: Vec<Value> = d
+        .attr
+        .evals
+        .iter()
+        .map(|e| {
+            let fitted = e.model.full.aug.synced();
+            let mp = candidates::model_params(&e.name, &fitted);
+            let params: serde_json::Map<String, Value> =
+                mp.iter().map(|(p, _, v)| (p.to_string(), json!(v))).collect();
+            let tr = super::rmse(&d.ds, &e.model.pred);
+            let cv = super::rmse(&d.ds, &e.model.cv);
+            json!({
+                "name": e.name,
+                "accepted": e.accepted,
+                "params": params,
+                "param_units": mp.iter().map(|(p, u, _)| (*p, *u)).collect::<std::collections::BTreeMap<_,_>>(),
+                "train_rmse_mm": axes(tr.rmse),
+                "heldout_rmse_mm": axes(cv.rmse),
+                "round": e.round,
+                "heldout_loglik_gain": e.gain,
+                "bic_penalty": e.penalty,
+                "p_value": e.p,
+                "plausible": e.implausible.is_empty(),
+                "implausible": e.implausible,
+                "signature_share": e.signature.0,
+                "signature_region": e.signature.1,
+                "passed": e.passed,
+                "ambiguous_with": e.ambiguous_with,
+            })
+        })
+        .collect();
+    let unexplained: Vec<Value> = d
+        .unexplained
+        .iter()
+        .map(|u| {
+            let mut v = region_json(&u.region);
+            v["mean_residual_after_mm"] = json!(u.mean_after);
+            v["heldout_shrink"] = json!(u.heldout_shrink);
+            v
+        })
+        .collect();
+    let ex = d.excess_removed();
+    let gt = &d.tests;
+    json!({
+        "schema": "magswarm-diagnose/1",
+        "sources": d.sources,
+        "residual": "measured minus model [mm]",
+        "gap": {
+            "significant": gt.significant,
+            "p_value": gt.p_value,
+            "alpha": d.cfg.alpha,
+            "families": gt.families,
+            "tests": {
+                "lack_of_fit": {
+                    "F": [gt.lof[0].f, gt.lof[1].f],
+                    "dof": [[gt.lof[0].dof.0, gt.lof[0].dof.1], [gt.lof[1].dof.0, gt.lof[1].dof.1]],
+                    "p_value": [gt.lof[0].p, gt.lof[1].p],
+                    "pure_error_from": if gt.lof_from_visits { "repeat visits" } else { "rows within visits" },
+                    "in_decision": gt.lof_from_visits,
+                },
+                "inputs_p_value": gt.space_p,
+                "drift_p_value": gt.drift_p,
+                "formation_p_value": gt.trans_p,
+                "formation_visits": gt.trans_visits,
+                "visit_sd_mm": gt.visit_sd,
+            },
+            "regions": d.regions.iter().map(region_json).collect::<Vec<_>>(),
+        },
+        "effects": effects,
+        "accepted": d.attr.accepted,
+        "ambiguous": d.attr.ambiguous.iter().map(|(a, b)| json!([a, b])).collect::<Vec<_>>(),
+        "unexplained": unexplained,
+        "baseline": {
+            "train_rmse_mm": axes(t[0].0.rmse),
+            "heldout_rmse_mm": axes(pool(t[0].1, w.map(|w| w.baseline))),
+            "heldout_cv_rmse_mm": axes(t[0].1.rmse),
+            "withheld_log_rmse_mm": w.map(|w| axes(w.baseline.rmse)),
+        },
+        "augmented": {
+            "effects": d.attr.accepted,
+            "train_rmse_mm": axes(t[1].0.rmse),
+            "heldout_rmse_mm": axes(pool(t[1].1, w.map(|w| w.augmented))),
+            "heldout_cv_rmse_mm": axes(t[1].1.rmse),
+            "withheld_log_rmse_mm": w.map(|w| axes(w.augmented.rmse)),
+        },
+        "floor_rmse_mm": axes(d.floor),
+        "floor_between_visit_sd_mm": axes(d.pe_aug.between_sd),
+        "excess_removed": {"r1": ex[0], "r2": ex[1], "both": ex[2]},
+        "pure_error": {
+            "within_visit_sd_mm": axes(d.pe.within_sd),
+            "within_visit_dof": d.pe.within_dof,
+            "between_visit_sd_mm": axes(d.pe.between_sd),
+            "between_visit_dof": d.pe.between_dof,
+            "points_visited_twice_or_more": d.pe.repeat_points,
+        },
+        "data": {
+            "rows": d.ds.rows_total,
+            "valid_rows": d.ds.rows.len(),
+            "visits": d.ds.visits.len(),
+            "operating_points": d.ds.points.len(),
+            "sessions": d.ds.sessions.len(),
+            "folds": d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0),
+        },
+        "withheld_log": w.map(|w| w.source.clone()),
+        "elapsed_s": d.elapsed.as_secs_f64(),
+    })
+}
+
+/// A few lines for the terminal.
+pub fn summary(d: &Diagnosis) -> String {
+    let mut s = String::new();
+    let t = d.rmse_table();
+    let _ = writeln!(
+        s,
+        "diagnose: {} rows, {} visits, {} points; gap {} (p = {:.3e}); {:.2} s",
+        d.ds.rows.len(),
+        d.ds.visits.len(),
+        d.ds.points.len(),
+        if d.tests.significant {
+            "significant"
+        } else {
+            "not significant"
+        },
+        d.tests.p_value,
+        d.elapsed.as_secs_f64()
+    );
+    for r in &d.regions {
+        let _ = writeln!(s, "  region: {}", describe_region(r));
+    }
+    let _ = writeln!(
+        s,
+        "  accepted: {}",
+        if d.attr.accepted.is_empty() {
+            "none".to_string()
+        } else {
+            d.attr.accepted.join(", ")
+        }
+    );
+    for (a, b) in &d.attr.ambiguous {
+        let _ = writeln!(s, "  ambiguous: {a} / {b} (neither named)");
+    }
+    for u in &d.unexplained {
+        let _ = writeln!(s, "  unexplained: {}", describe_region(&u.region));
+    }
+    let _ = writeln!(
+        s,
+        "  withheld RMSE (CV by visit) r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm; floor {:.3} / {:.3} mm",
+        t[0].1.rmse[0], t[1].1.rmse[0], t[0].1.rmse[1], t[1].1.rmse[1], d.floor[0], d.floor[1]
+    );
+    if let Some(w) = &d.withheld {
+        let _ = writeln!(
+            s,
+            "  withheld log {}: r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm",
+            w.source,
+            w.baseline.rmse[0],
+            w.augmented.rmse[0],
+            w.baseline.rmse[1],
+            w.augmented.rmse[1]
+        );
+    }
+    s
+}
+
+fn describe_region(r: &Region) -> String {
+    let mut s = format!(
+        "{}: z_m {}-{} mm, f {}-{} Hz",
+        AXES[r.axis],
+        g(r.z.0),
+        g(r.z.1),
+        g(r.f.0),
+        g(r.f.1)
+    );
+    if let Some(t) = r.t {
+        let _ = write!(s, ", session time {}-{} s", g(t.0), g(t.1));
+    }
+    if let Some(t) = r.since {
+        let _ = write!(s, ", {}-{} s after an input change", g(t.0), g(t.1));
+    }
+    let _ = write!(
+        s,
+        " ({} {} mm, p = {:.2e}, {} visits)",
+        match r.kind {
+            Kind::Formation => "lag contrast",
+            Kind::Pattern => "RMS of the smoothed residual",
+            _ => "mean residual",
+        },
+        g(r.mean),
+        r.p,
+        r.visits.len()
+    );
+    s
+}
+
+/// Write every output into `dir`.
+pub fn write(d: &Diagnosis, dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let j = json(d);
+    std::fs::write(
+        dir.join("report.json"),
+        serde_json::to_string_pretty(&j)? + "\n",
+    )
+    .with_context(|| format!("cannot write {}", dir.join("report.json").display()))?;
+    d.ident
+        .model
+        .save(&dir.join("baseline.json"))
+        .with_context(|| format!("cannot write {}", dir.join("baseline.json").display()))?;
+    augmented_model(d)
+        .save(&dir.join("augmented.json"))
+        .with_context(|| format!("cannot write {}", dir.join("augmented.json").display()))?;
+    let figs = plots(d, dir)?;
+    std::fs::write(dir.join("report.md"), markdown(d, &figs))
+        .with_context(|| format!("cannot write {}", dir.join("report.md").display()))?;
+    Ok(())
+}
