@@ -51,12 +51,15 @@ proptest! {
         prop_assert!(tau > 0.05 && tau < 10.0, "formation time constant {tau} s");
     }
 
-    /// From any plausible start the plant forms the swarm the map predicts.
+    /// From any plausible start the plant forms the swarm the map predicts. Far below the map
+    /// the expansion of (2), which scales with r1 r2, is slow: a swarm started as a 2 mm
+    /// speck at large z_m and 1 Hz needs minutes, not the seconds of the time constant at the
+    /// equilibrium, so the swarm is given 10 minutes.
     #[test]
     fn plant_converges_from_any_start((z, f) in envelope(), r0 in (2.0f64..30.0, 2.0f64..30.0)) {
         let mut p = Plant::new(Model::paper(), z, hz_to_rad_s(f));
         p.set_state([r0.0, r0.1]);
-        for _ in 0..120 { p.step(0.5).unwrap(); }
+        for _ in 0..600 { p.step(1.0).unwrap(); }
         let o = p.outputs();
         prop_assert!((o.r1 - o.steady.r1).abs() < 1e-4 * o.steady.r1, "{o:?}");
         prop_assert!((o.r2 - o.steady.r2).abs() < 1e-4 * o.steady.r2);
