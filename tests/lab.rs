@@ -236,6 +236,7 @@ fn all_effects() -> Model {
     m.effects.phase_lag = Some(PhaseLag {
         f_so_hz: 6.0,
         nu: 1.0,
+        spread: 0.0,
     });
     m.effects.cohesion_loss = Some(CohesionLoss {
         z_c_mm: 16.0,

@@ -13,7 +13,7 @@
 //!
 //! | candidate | freed parameters (fit space) | model parameters | fixed at neutral, and why |
 //! | --- | --- | --- | --- |
-//! | `phase_lag` | f_mid [Hz] (step-out frequency at the data's mid-range field), nu [-] | `f_so_hz = f_mid (B_ref / B_mid)^nu`, `nu` | - |
+//! | `phase_lag` | f_mid [Hz] (step-out frequency at the data's mid-range field), nu [-], spread [-] | `f_so_hz = f_mid (B_ref / B_mid)^nu`, `nu`, `spread` | - |
 //! | `cohesion_loss` | z_c [mm], k [1/mm^2] | `z_c_mm`, `k_per_mm2` | - |
 //! | `formation_lag` | share [-], tau_s [s], zeta [-] | the same | - |
 //! | `particle_drift` | rate [1/h] | `rate_per_h` | - |
@@ -106,6 +106,11 @@ pub fn params(name: &str, ctx: &Ctx) -> Vec<EffParam> {
                 flag: (false, true),
                 ..row("phase_lag.nu", "nu")
             },
+            EffParam {
+                // 0 (one sharp step-out) is a physical limit, not a misfit.
+                flag: (false, true),
+                ..row("phase_lag.spread", "spread")
+            },
         ],
         "cohesion_loss" => vec![
             EffParam {
@@ -166,7 +171,7 @@ pub fn params(name: &str, ctx: &Ctx) -> Vec<EffParam> {
 pub fn neutral(name: &str, ctx: &Ctx) -> Vec<f64> {
     match name {
         // Step-out above every frequency of the data at every field: w_eff = w.
-        "phase_lag" => vec![3.0 * ctx.f_max, 0.0],
+        "phase_lag" => vec![3.0 * ctx.f_max, 0.0, 0.0],
         // Onset at the data's largest z_m: (z - z_c)_+ = 0 everywhere.
         "cohesion_loss" => vec![ctx.z_max, 0.1],
         "formation_lag" => vec![0.0, 10.0, 1.0],
@@ -193,7 +198,7 @@ pub fn starts(name: &str, ctx: &Ctx, ds: &Dataset) -> Vec<Vec<f64>> {
             locs.insert(0, 0.8 * ctx.f_min);
             for f in locs {
                 for nu in [0.3, 1.5] {
-                    v.push(vec![f, nu]);
+                    v.push(vec![f, nu, 0.3]);
                 }
             }
         }
@@ -256,10 +261,11 @@ pub fn to_model(name: &str, vals: &[f64], b_mid: f64, m: &mut Model) {
         }
     };
     match (name, vals) {
-        ("phase_lag", [f_mid, nu]) => {
+        ("phase_lag", [f_mid, nu, spread]) => {
             let b = (b_mid / m.steady.B_ref).max(1e-300);
             set(m, "phase_lag.f_so_hz", f_mid * b.powf(-nu));
             set(m, "phase_lag.nu", *nu);
+            set(m, "phase_lag.spread", *spread);
         }
         ("cohesion_loss", [zc, k]) => {
             set(m, "cohesion_loss.z_c_mm", *zc);

@@ -23,7 +23,7 @@ import pytest
 from conftest import REPO, hz, mm
 
 EFFECTS = {
-    "phase_lag": {"f_so_hz": 6.0, "nu": 1.0},
+    "phase_lag": {"f_so_hz": 6.0, "nu": 1.0, "spread": 0.3},
     "cohesion_loss": {"z_c_mm": 15.0, "k_per_mm2": 0.01},
     "formation_lag": {"share": 0.4, "tau_s": 6.0, "zeta": 0.5},
     "particle_drift": {"rate_per_h": -0.5},

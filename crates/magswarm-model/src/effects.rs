@@ -59,7 +59,24 @@ pub struct PhaseLag {
     pub f_so_hz: f64,
     /// Exponent of the field in the step-out frequency [-] (1: magnetic torque ~ B).
     pub nu: f64,
+    /// Spread of the step-out frequency over the swarm's particles and chains: the SD of
+    /// ln f_so [-] (0: one sharp step-out; absent in a model file written before it
+    /// existed: 0).
+    #[serde(default)]
+    pub spread: f64,
 }
+
+/// Nodes and weights (normalised to 1) of 7-point Gauss-Hermite quadrature for the standard
+/// normal distribution: the average over a log-normal spread of step-out frequencies.
+const GH7: [(f64, f64); 7] = [
+    (-3.750439717725742, 0.000548268855972),
+    (-2.366759410734541, 0.030757123967586),
+    (-1.154405394739968, 0.240123178605013),
+    (0.0, 0.457142857142857),
+    (1.154405394739968, 0.240123178605013),
+    (2.366759410734541, 0.030757123967586),
+    (3.750439717725742, 0.000548268855972),
+];
 
 /// Confinement that fades past an onset distance (weakening cohesion toward z_off).
 ///
@@ -128,6 +145,7 @@ impl PhaseLag {
     pub const NEUTRAL: PhaseLag = PhaseLag {
         f_so_hz: 1.0e4,
         nu: 1.0,
+        spread: 0.0,
     };
 
     /// Effective normalised rotation rate of the swarm and its derivatives:
@@ -142,18 +160,36 @@ impl PhaseLag {
     ) -> (f64, f64, f64) {
         let bn = field.b / model.steady.B_ref;
         let w_so = self.f_so_hz / model.steady.f_ref * bn.powf(self.nu);
-        if !(w > w_so) {
-            return (w, dw, 0.0);
+        // d ln w_so / dz_m: the same for every particle of the spread.
+        let dln_dz = self.nu * field.db_dz / field.b;
+        if self.spread <= 0.0 {
+            return adler(w, dw, w_so, dln_dz);
         }
-        let s = (w * w - w_so * w_so).sqrt();
-        let w_eff = w - s;
-        // The slope is infinite at step-out itself; keep it finite for Newton and Jacobians.
-        let sd = s.max(1e-6 * w);
-        let dw_eff_dw = 1.0 - w / sd;
-        let dw_eff_dwso = w_so / sd;
-        let dwso_dz = w_so * self.nu * field.db_dz / field.b;
-        (w_eff, dw_eff_dw * dw, dw_eff_dwso * dwso_dz)
+        // A swarm whose particles step out over a spread of frequencies rotates at the
+        // average of their rates: the corner at w = w_so is rounded.
+        let mut acc = (0.0, 0.0, 0.0);
+        for (x, p) in GH7 {
+            let r = adler(w, dw, w_so * (self.spread * x).exp(), dln_dz);
+            acc = (acc.0 + p * r.0, acc.1 + p * r.1, acc.2 + p * r.2);
+        }
+        acc
     }
+}
+
+/// The average rotation rate of a rotor driven at w with step-out rate w_so (Adler):
+/// `(w_eff, dw_eff/domega, dw_eff/dz_m)` given dw/domega and d ln w_so / dz_m.
+#[inline]
+fn adler(w: f64, dw: f64, w_so: f64, dln_dz: f64) -> (f64, f64, f64) {
+    if !(w > w_so) {
+        return (w, dw, 0.0);
+    }
+    let s = (w * w - w_so * w_so).sqrt();
+    let w_eff = w - s;
+    // The slope is infinite at step-out itself; keep it finite for Newton and Jacobians.
+    let sd = s.max(1e-6 * w);
+    let dw_eff_dw = 1.0 - w / sd;
+    let dw_eff_dwso = w_so / sd;
+    (w_eff, dw_eff_dw * dw, dw_eff_dwso * w_so * dln_dz)
 }
 
 impl CohesionLoss {

@@ -249,6 +249,7 @@ pub static PARAMS: &[Param] = &[
     effect_param!(camera_bias.scale, CameraBias, None, "camera_bias: scale error of the measured radii", range(0.2, 5.0), fit(0.7, 1.4, Log, false)),
     effect_param!(camera_bias.offset_mm, CameraBias, Some("mm"), "camera_bias: offset of the measured radii", range(-20.0, 20.0), fit(-3.0, 3.0, Sin, false)),
     effect_param!(camera_bias.tilt_deg, CameraBias, None, "camera_bias: tilt of the image plane about the r1 axis [deg] (foreshortens r2 by cos)", range(-80.0, 80.0), fit(0.0, 60.0, Sin, false)),
+    effect_param!(phase_lag.spread, PhaseLag, None, "phase_lag: spread of the step-out frequency over the particles (SD of ln f_so)", range(0.0, 3.0), fit(0.0, 1.5, Sin, false)),
 ];
 
 /// The row of a parameter, by name.

@@ -77,6 +77,7 @@ fn phase_lag_raises_radii_only_above_step_out() {
         e.phase_lag = Some(PhaseLag {
             f_so_hz: 6.0,
             nu: 1.0,
+            spread: 0.0,
         })
     });
     let base = Model::paper();
@@ -143,6 +144,7 @@ fn steady_and_input_jacobians_with_effects_match_finite_differences() {
     m.effects.phase_lag = Some(PhaseLag {
         f_so_hz: 5.0,
         nu: 1.3,
+        spread: 0.35,
     });
     m.effects.cohesion_loss = Some(CohesionLoss {
         z_c_mm: 12.0,
@@ -206,6 +208,7 @@ fn scheduled_equilibrium_is_the_map_with_effects() {
     m.effects.phase_lag = Some(PhaseLag {
         f_so_hz: 5.0,
         nu: 1.0,
+        spread: 0.0,
     });
     m.effects.cohesion_loss = Some(CohesionLoss {
         z_c_mm: 15.0,
@@ -322,6 +325,7 @@ fn model_file_v2_round_trips_effects_and_reads_v1() {
     m.effects.phase_lag = Some(PhaseLag {
         f_so_hz: 6.1,
         nu: 0.9,
+        spread: 0.0,
     });
     m.effects.camera_bias = Some(CameraBias::NEUTRAL);
     let text = m.to_json().unwrap();
@@ -354,6 +358,10 @@ fn effect_parameters_are_checked_and_named() {
     v["effects"] = serde_json::json!({"camera_bias": {"scale": 1.0, "offset_mm": 0.0}});
     let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
     assert!(e.message.contains("tilt_deg"), "{e}");
+    // A phase lag written before its `spread` existed reads as one sharp step-out.
+    v["effects"] = serde_json::json!({"phase_lag": {"f_so_hz": 6.0, "nu": 1.0}});
+    let m = Model::from_json_str(&v.to_string(), "m.json").unwrap();
+    assert_eq!(m.effects.phase_lag.unwrap().spread, 0.0);
     v["effects"] = serde_json::json!({"phase_lags": {}});
     let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
     assert!(e.message.contains("unknown field"), "{e}");
