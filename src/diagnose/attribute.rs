@@ -12,7 +12,9 @@
 //!    frequency, cohesion distance) inside the data's range;
 //! 4. its residual signature matches: refitted on all data it removes at least half of the
 //!    residual of at least one significant region (in later rounds: a region of the residual
-//!    the accepted effects leave, found by the same gap tests and localisation).
+//!    the accepted effects leave, found by the same gap tests and localisation), or, with it,
+//!    the gap tests find no significant gap left at all (a region of the baseline's residual
+//!    can be partly the baseline's compensation, which the joint refit moves elsewhere).
 //!
 //! Forward selection repeats this on top of the accepted set (up to three effects). When the
 //! best two passing candidates cannot be told apart (the better one is not better by a paired
@@ -73,6 +75,11 @@ pub struct CandidateEval {
     pub implausible: Vec<String>,
     /// Largest share of a significant region's residual it removes, and that region's index.
     pub signature: (f64, Option<usize>),
+    /// With it, the gap tests on the residual find no significant gap left (checked only for
+    /// a candidate that passes every other rule but removes less than half of every region:
+    /// a region found on the baseline's residual can be partly the baseline's compensation,
+    /// which a refit moves elsewhere).
+    pub closes_gap: bool,
     /// Passed all four rules.
     pub passed: bool,
     /// Accepted.
@@ -322,8 +329,12 @@ pub fn attribute(
                     }
                 }
             }
-            let passed =
-                gain > penalty && p < st.alpha && implausible.is_empty() && signature.0 >= 0.5;
+            let others = gain > penalty && p < st.alpha && implausible.is_empty();
+            let closes_gap = others && signature.0 < 0.5 && relocalise(&res_new).is_empty();
+            if closes_gap && signature.1.is_none() {
+                signature.1 = Some(0);
+            }
+            let passed = others && (signature.0 >= 0.5 || closes_gap);
             round_evals.push(CandidateEval {
                 name,
                 round,
@@ -333,6 +344,7 @@ pub fn attribute(
                 p,
                 implausible,
                 signature,
+                closes_gap,
                 passed,
                 accepted: false,
                 ambiguous_with: Vec::new(),

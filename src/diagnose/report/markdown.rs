@@ -190,7 +190,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             };
             let _ = writeln!(
                 w,
-                "| {} | {} | {} | {} | {:.2e} | {} | {:.0} % | {:.3} / {:.3} | {} | {} |",
+                "| {} | {} | {} | {} | {:.2e} | {} | {:.0} %{} | {:.3} / {:.3} | {} | {} |",
                 e.name,
                 e.round,
                 g(e.gain),
@@ -202,13 +202,18 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                     e.implausible.join("; ")
                 },
                 100.0 * e.signature.0,
+                if e.closes_gap {
+                    "; no gap left with it"
+                } else {
+                    ""
+                },
                 cv.rmse[0],
                 cv.rmse[1],
                 ps.join(", "),
                 verdict
             );
         }
-        let _ = writeln!(w, "\nRules (all must hold): withheld log-likelihood gain over the model of the previous round above the BIC penalty (k/2 ln visits); per-visit gains positive by a paired t test at alpha; no parameter at a fit bound and locations inside the data; and, refitted on all data, at least half of a significant region's residual removed. Forward selection adds effects one at a time. The candidates are the model's own effect terms (docs/effects.md), refitted with the baseline; what each frees is in `src/diagnose/candidates.rs`. An accepted effect is switched on in `augmented.json` with these parameters.\n");
+        let _ = writeln!(w, "\nRules (all must hold): withheld log-likelihood gain over the model of the previous round above the BIC penalty (k/2 ln visits); per-visit gains positive by a paired t test at alpha; no parameter at a fit bound and locations inside the data; and, refitted on all data, at least half of a significant region's residual removed, or no significant gap left with it. Forward selection adds effects one at a time. The candidates are the model's own effect terms (docs/effects.md), refitted with the baseline; what each frees is in `src/diagnose/candidates.rs`. An accepted effect is switched on in `augmented.json` with these parameters.\n");
     }
     let _ = writeln!(w, "## Unexplained\n");
     if d.unexplained.is_empty() {

@@ -109,6 +109,7 @@ pub fn json(d: &Diagnosis) -> Value {
                 "implausible": e.implausible,
                 "signature_share": e.signature.0,
                 "signature_region": e.signature.1,
+                "closes_gap": e.closes_gap,
                 "passed": e.passed,
                 "ambiguous_with": e.ambiguous_with,
             })
