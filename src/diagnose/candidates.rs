@@ -188,7 +188,6 @@ pub fn neutral(name: &str, ctx: &Ctx) -> Vec<f64> {
 pub fn starts(name: &str, ctx: &Ctx, ds: &Dataset) -> Vec<Vec<f64>> {
     let (zs, fs) = ds.levels();
     let mids = |v: &[f64]| -> Vec<f64> { v.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect() };
-    let span_z = (ctx.z_max - ctx.z_min).max(1.0);
     let mut v = Vec::new();
     match name {
         "phase_lag" => {
@@ -247,7 +246,6 @@ pub fn starts(name: &str, ctx: &Ctx, ds: &Dataset) -> Vec<Vec<f64>> {
         }
         _ => v.push(Vec::new()),
     }
-    let _ = span_z;
     v
 }
 
@@ -404,11 +402,12 @@ fn map_point(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
 
 /// Physical steady map of the augmented model at every point of `ds` [mm].
 pub fn point_map(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
-    let m = aug.synced();
-    ds.points
-        .iter()
-        .map(|&(z, f)| map_point(&m, z, f))
-        .collect()
+    map_of(&aug.synced(), ds)
+}
+
+/// Physical steady map of a model at every point of `ds` [mm].
+fn map_of(m: &Model, ds: &Dataset) -> Vec<[f64; 2]> {
+    ds.points.iter().map(|&(z, f)| map_point(m, z, f)).collect()
 }
 
 /// Predicted (observed) radii at every row of `ds` [mm]: the steady map plus the baseline's
@@ -416,11 +415,7 @@ pub fn point_map(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
 /// row's session time.
 pub fn predict(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
     let m = aug.synced();
-    let map: Vec<[f64; 2]> = ds
-        .points
-        .iter()
-        .map(|&(z, f)| map_point(&m, z, f))
-        .collect();
+    let map = map_of(&m, ds);
     let fx = &m.effects;
     let mut out: Vec<[f64; 2]> = Vec::with_capacity(ds.rows.len());
     // The state at the current visit's input change: this model's radius at the row before.
@@ -468,7 +463,7 @@ fn formation(fl: &FormationLag, ds: &Dataset, map: &[[f64; 2]], out: &mut [[f64;
             }
         }
         for a in 0..2 {
-            out[i][a] = (1.0 - fl.share) * out[i][a] + fl.share * xv[a][0];
+            out[i][a] = fl.blend(out[i][a], xv[a][0]);
         }
     }
 }

@@ -191,10 +191,8 @@ pub fn fit(
     }
     let mut best: Option<FitResult> = None;
     for init in inits {
-        let (fitted, cost) = local_fit(&init, &knobs, ds, train, sd, 30);
-        let prob_aug = fitted;
+        let (mut aug, cost) = local_fit(&init, &knobs, ds, train, sd, 30);
         if best.as_ref().map(|b| cost < b.cost).unwrap_or(true) {
-            let mut aug = prob_aug.clone();
             aug.sync_model();
             let mut at_bound = Vec::new();
             for k in &knobs {

@@ -216,6 +216,13 @@ impl FormationLag {
         zeta: 1.0,
     };
 
+    /// The footprint radius of one axis [mm]: the ODE (4) radius `r` blended with the slow
+    /// mode's `x` by the share that forms through it.
+    #[inline]
+    pub fn blend(&self, r: f64, x: f64) -> f64 {
+        (1.0 - self.share) * r + self.share * x
+    }
+
     /// Propagate the slow mode `(x, v)` of one axis by `h` seconds toward the target `r_ss`,
     /// exactly (the target is constant between input changes).
     pub fn propagate(&self, xv: [f64; 2], r_ss: f64, h: f64) -> [f64; 2] {

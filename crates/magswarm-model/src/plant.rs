@@ -284,13 +284,10 @@ impl Plant {
     pub fn footprint(&self) -> [f64; 2] {
         match &self.model.effects.formation_lag {
             None => self.r,
-            Some(fl) => {
-                let a = fl.share;
-                [
-                    (1.0 - a) * self.r[0] + a * self.form[0],
-                    (1.0 - a) * self.r[1] + a * self.form[2],
-                ]
-            }
+            Some(fl) => [
+                fl.blend(self.r[0], self.form[0]),
+                fl.blend(self.r[1], self.form[2]),
+            ],
         }
     }
 
