@@ -1,46 +1,58 @@
-//! Attribution: which candidate effect explains the gap, by grouped cross-validation.
+//! Attribution: which effect explains the gap, judged on withheld visits and calibrated by
+//! simulation.
 //!
-//! Folds are groups of whole visits (rows of one visit share a visit-to-visit error). For a
-//! model (the baseline plus a set of effects) every fold is refitted on the other folds' rows
-//! (the baseline's free steady parameters and every effect parameter together) and predicts
-//! its own rows. A candidate c added to the accepted set A is accepted when, all at once:
+//! Every candidate effect is a family of shapes along its physical axis ([`super::shapes`]:
+//! step-out over f, possibly moving with the field; cohesion loss over z_m; drift over session
+//! time; formation over the time since a change) or, for the effects without an axis, the
+//! correction its parametric form makes (centroid offset at a few distances, camera offset).
+//! Beside them stands one pseudo-candidate, the *local anomaly*: the strongest small box of
+//! operating points, which no effect describes.
 //!
-//! 1. its withheld log-likelihood gain over A, sum over visits of
-//!    (SSE_A - SSE_c) / 2 in units of the row SD, exceeds the BIC penalty k/2 ln(visits);
-//! 2. the per-visit gains are positive by a one-sided paired t test at `alpha`;
-//! 3. its parameters are physically plausible: none at a fit bound, a location (step-out
-//!    frequency, cohesion distance) inside the data's range;
-//! 4. its residual signature matches: refitted on all data it removes at least half of the
-//!    residual of at least one significant region (in later rounds: a region of the residual
-//!    the accepted effects leave, found by the same gap tests and localisation), or, with it,
-//!    the gap tests find no significant gap left at all (a region of the baseline's residual
-//!    can be partly the baseline's compensation, which the joint refit moves elsewhere).
+//! A candidate's **gain** is the drop of the withheld sum of squares (grouped cross-validation
+//! by visit, everything refitted per fold together with the model's free parameters), halved,
+//! in units of the row noise, best over the candidate's variants (smoothness, field exponent).
+//! Its **null distribution** is that of the same statistic on logs simulated from the current
+//! model with the log's own design and noise structure ([`super::noise`]), each refitted
+//! exactly as the real one, variants and box search included. A candidate *passes* when its
+//! gain lies beyond its null (bootstrap p < alpha); the passing candidate with the largest gain
+//! is named. If that is the local anomaly, nothing more is named: the gap there is reported
+//! unexplained. Plausibility of the fitted parametric form and the share of each region's
+//! residual removed are reported as reasons, never as vetoes over strong evidence.
 //!
-//! Forward selection repeats this on top of the accepted set (up to three effects). When the
-//! best two passing candidates cannot be told apart (the better one is not better by a paired
-//! test at 0.05) and explain the same residual (their corrections correlate > 0.7 over the
-//! visits, or they explain the same region best), neither is named: both are reported as
-//! ambiguous and the gap stays unexplained.
+//! Forward selection: the named effect joins the design, the gap tests ([`super::detect`])
+//! run again on what is left, and selection continues while a significant gap remains.
+//!
+//! Then each named effect's **form** is chosen: its library (parametric) form, fitted by the
+//! nonlinear fitter, is used where it does as well on withheld visits as the learned shape (at
+//! least 90 % of its gain); otherwise the learned shape goes into the model as a learned
+//! effect term (heights at knots with their SDs).
 
 use super::candidates::{self, Augmented, Ctx};
 use super::data::Dataset;
+use super::detect::{self, Setting};
 use super::fitter::{self, FitResult};
 use super::gap::{self, Region};
-use super::stats;
-use crate::identify::params::Free;
+use super::linear::{self, Design, Solver};
+use super::noise::{self, Noise};
+use super::shapes::{self, Axis, Family, Mode, RowCtx, Shape};
+use crate::identify::params::{self, Free};
+use nalgebra::{DMatrix, DVector};
 use rand::{seq::SliceRandom, SeedableRng};
+use rayon::prelude::*;
 
 /// Settings.
 #[derive(Debug, Clone, Copy)]
 pub struct Settings {
     /// Folds.
     pub folds: usize,
-    /// Significance of the withheld gain.
+    /// Significance of a candidate's gain.
     pub alpha: f64,
     /// Most effects accepted.
     pub max_effects: usize,
-    /// Seed of the fold assignment.
+    /// Seed of the fold assignment and the simulations.
     pub seed: u64,
+    /// Bootstrap replicates.
+    pub boot: usize,
 }
 
 /// A model fitted on all rows and cross-validated.
@@ -56,6 +68,15 @@ pub struct Evaluated {
     pub cv: Vec<[f64; 2]>,
 }
 
+/// How a named effect enters the model.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Form {
+    /// Its library (parametric) form.
+    Parametric,
+    /// A learned shape along its axis.
+    Learned(Shape),
+}
+
 /// The evaluation of one candidate in one round.
 #[derive(Debug, Clone)]
 pub struct CandidateEval {
@@ -63,29 +84,32 @@ pub struct CandidateEval {
     pub name: String,
     /// Round (1 = on top of the baseline).
     pub round: usize,
-    /// The model with it.
+    /// The model with it (for a named effect: in the form chosen).
     pub model: Evaluated,
-    /// Withheld log-likelihood gain over the accepted set.
+    /// Withheld gain over the model of the round [row-noise units].
     pub gain: f64,
-    /// BIC penalty.
+    /// The null distribution's (1 - alpha) quantile of the gain.
     pub penalty: f64,
-    /// One-sided paired p-value of the gain.
+    /// Bootstrap p-value of the gain.
     pub p: f64,
-    /// Problems of plausibility (empty: plausible).
+    /// The variant that gave the gain.
+    pub variant: String,
+    /// Reasons for doubt about the fitted parametric form (reported, not a veto).
     pub implausible: Vec<String>,
     /// Largest share of a significant region's residual it removes, and that region's index.
     pub signature: (f64, Option<usize>),
-    /// With it, the gap tests on the residual find no significant gap left (checked only for
-    /// a candidate that passes every other rule but removes less than half of every region:
-    /// a region found on the baseline's residual can be partly the baseline's compensation,
-    /// which a refit moves elsewhere).
+    /// With it, the gap tests find no significant gap left.
     pub closes_gap: bool,
-    /// Passed all four rules.
+    /// Gain beyond its null.
     pub passed: bool,
-    /// Accepted.
+    /// Named.
     pub accepted: bool,
-    /// Candidates it cannot be told apart from.
+    /// Candidates whose gain comes within 80 % of this one's (close alternatives).
     pub ambiguous_with: Vec<String>,
+    /// The form it enters the model in (named effects; the library form otherwise).
+    pub form: Form,
+    /// Gains of the library form and of the learned shape when the form was chosen.
+    pub form_gains: Option<(f64, f64)>,
 }
 
 /// Everything attribution produced.
@@ -99,10 +123,14 @@ pub struct Attribution {
     pub accepted: Vec<String>,
     /// Latest evaluation of every candidate.
     pub evals: Vec<CandidateEval>,
-    /// Pairs that could not be told apart.
+    /// Pairs that came close (reported; the larger gain is named).
     pub ambiguous: Vec<(String, String)>,
     /// Fold of each visit.
     pub fold_of_visit: Vec<usize>,
+    /// The gap tests after each accepted effect.
+    pub rounds: Vec<detect::Detection>,
+    /// The local anomaly beat every effect in the last round: the gap left is unexplained.
+    pub anomaly_won: bool,
 }
 
 /// Fold of each visit: shuffled, then dealt round-robin.
@@ -117,65 +145,463 @@ pub fn folds(nv: usize, k: usize, seed: u64) -> Vec<usize> {
     f
 }
 
-struct Env<'a> {
-    ds: &'a Dataset,
-    ctx: &'a Ctx,
-    free: &'a [Free],
-    sd: [f64; 2],
-    fold_of_visit: &'a [usize],
-    k: usize,
+/// The linear world of one log: the linearisation point, the model's Jacobian, the noise.
+pub struct Linear<'a> {
+    /// Data.
+    pub ds: &'a Dataset,
+    /// Context.
+    pub ctx: &'a Ctx,
+    /// The baseline (the linearisation point).
+    pub base: &'a Augmented,
+    /// Its predictions.
+    pub p0: Vec<[f64; 2]>,
+    /// Its steady map at the points.
+    pub map0: Vec<[f64; 2]>,
+    /// Weighted residual of the baseline (stacked).
+    pub y: DVector<f64>,
+    /// The baseline's design (free parameters' Jacobian, weighted).
+    pub jac: Design,
+    /// Row context.
+    pub rc: RowCtx,
+    /// Noise.
+    pub noise: Noise,
+    /// Fold of each stacked row.
+    pub fold_of_stacked: Vec<usize>,
+    /// Folds.
+    pub k: usize,
+    /// Free parameters of the baseline.
+    pub free: &'a [Free],
 }
 
-impl Env<'_> {
-    fn evaluate(&self, start: &Augmented, names: Vec<String>, starts: &[Vec<f64>]) -> Evaluated {
-        let all: Vec<usize> = (0..self.ds.rows.len()).collect();
-        let full = fitter::fit(start, self.free, self.ds, self.ctx, &all, self.sd, starts);
-        let pred = candidates::predict(&full.aug, self.ds);
-        let mut cv = vec![[0.0; 2]; self.ds.rows.len()];
-        for f in 0..self.k {
-            let train: Vec<usize> = all
-                .iter()
-                .copied()
-                .filter(|&i| self.fold_of_visit[self.ds.rows[i].visit] != f)
-                .collect();
-            if train.len() == all.len() {
-                continue;
+impl<'a> Linear<'a> {
+    /// Set up from the baseline and its free parameters.
+    pub fn new(
+        ds: &'a Dataset,
+        ctx: &'a Ctx,
+        base: &'a Augmented,
+        free: &'a [Free],
+        noise: Noise,
+        fold_of_visit: &[usize],
+        k: usize,
+    ) -> Linear<'a> {
+        let p0 = candidates::predict(base, ds);
+        let map0 = candidates::point_map(base, ds);
+        let sd = noise.row();
+        let w = [1.0 / sd[0].max(1e-6), 1.0 / sd[1].max(1e-6)];
+        let n = ds.rows.len();
+        let y = DVector::from_fn(2 * n, |s, _| {
+            let (i, a) = (s / 2, s % 2);
+            let v = w[a] * (ds.rows[i].r[a] - p0[i][a]);
+            if v.is_finite() {
+                v
+            } else {
+                0.0
             }
-            let fr = fitter::fit(
-                &full.aug,
-                self.free,
-                self.ds,
-                self.ctx,
-                &train,
-                self.sd,
-                &[],
-            );
-            let p = candidates::predict(&fr.aug, self.ds);
-            for i in 0..self.ds.rows.len() {
-                if self.fold_of_visit[self.ds.rows[i].visit] == f {
-                    cv[i] = p[i];
+        });
+        // Jacobian of the predictions in the free parameters, each column scaled to unit norm
+        // (only the span matters).
+        let mut a = DMatrix::zeros(2 * n, free.len());
+        for (c, f) in free.iter().enumerate() {
+            let th = params::get(&base.model, f.name());
+            let h = 1e-4 * th.abs().max(1e-3);
+            let mut b = base.clone();
+            params::set(&mut b.model, f.name(), th + h);
+            let p = candidates::predict(&b, ds);
+            for i in 0..n {
+                for ax in 0..2 {
+                    let d = w[ax] * (p[i][ax] - p0[i][ax]) / h;
+                    a[(2 * i + ax, c)] = if d.is_finite() { d } else { 0.0 };
+                }
+            }
+            let nrm = a.column(c).norm();
+            if nrm > 0.0 {
+                a.column_mut(c).scale_mut(1.0 / nrm);
+            }
+        }
+        let p = free.len();
+        let jac = Design {
+            a,
+            pen: DMatrix::identity(p, p) * 1e-8,
+        };
+        let ln_b = ds
+            .rows
+            .iter()
+            .map(|r| (candidates::field_b(&base.model, r.z) / ctx.b_mid).max(1e-300).ln())
+            .collect();
+        let rc = RowCtx::new(ds, &p0, &map0, ln_b, w);
+        let fold_of_stacked = (0..2 * n)
+            .map(|s| fold_of_visit[ds.rows[s / 2].visit])
+            .collect();
+        Linear {
+            ds,
+            ctx,
+            base,
+            p0,
+            map0,
+            y,
+            jac,
+            rc,
+            noise,
+            fold_of_stacked,
+            k,
+            free,
+        }
+    }
+
+    /// Row predictions [mm] from weighted fitted values of the residual.
+    fn pred_of(&self, fitted: &DVector<f64>) -> Vec<[f64; 2]> {
+        (0..self.ds.rows.len())
+            .map(|i| {
+                [
+                    self.p0[i][0] + fitted[2 * i] / self.rc.w[0],
+                    self.p0[i][1] + fitted[2 * i + 1] / self.rc.w[1],
+                ]
+            })
+            .collect()
+    }
+
+    /// In-sample and withheld predictions of a design.
+    fn evaluate(&self, d: &Design) -> Option<(Vec<[f64; 2]>, Vec<[f64; 2]>)> {
+        let s = Solver::new(d, &self.fold_of_stacked, self.k)?;
+        let fit = &self.y - s.residual(&self.y);
+        let cv = &self.y - s.cv_residual(&self.y);
+        Some((self.pred_of(&fit), self.pred_of(&cv)))
+    }
+}
+
+/// One variant of a candidate: its columns (and penalty), or a box found per log.
+#[derive(Debug, Clone)]
+enum Variant {
+    Shape(Family),
+    Column(&'static str, DMatrix<f64>),
+    Anomaly,
+}
+
+/// The candidates and their variants.
+fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
+    let ds = lin.ds;
+    let (zs, fs) = ds.levels();
+    let rc = &lin.rc;
+    let smooths = [0.1, 1.0];
+    let mut out: Vec<(&'static str, Vec<Variant>)> = Vec::new();
+    let mut v = Vec::new();
+    for nu in [0.0, 1.0] {
+        let xs = rc.xs(Axis::F { nu });
+        for s in smooths {
+            v.push(Variant::Shape(Family {
+                axis: Axis::F { nu },
+                mode: Mode::Add,
+                knots: shapes::knots_of(&xs, fs.len().clamp(2, 10)),
+                pin_last: false,
+                smooth: s,
+            }));
+        }
+    }
+    out.push(("phase_lag", v));
+    out.push((
+        "cohesion_loss",
+        smooths
+            .iter()
+            .map(|&s| {
+                Variant::Shape(Family {
+                    axis: Axis::Z,
+                    mode: Mode::Add,
+                    knots: shapes::knots_of(&zs, 8),
+                    pin_last: false,
+                    smooth: s,
+                })
+            })
+            .collect(),
+    ));
+    if let Some(f) = detect::since_family(rc, 0.1) {
+        out.push((
+            "formation_lag",
+            smooths
+                .iter()
+                .map(|&s| Variant::Shape(Family { smooth: s, ..f.clone() }))
+                .collect(),
+        ));
+    }
+    out.push((
+        "particle_drift",
+        smooths
+            .iter()
+            .map(|&s| {
+                Variant::Shape(Family {
+                    axis: Axis::T,
+                    mode: Mode::Relative,
+                    knots: shapes::knots_of(&rc.t, 8),
+                    pin_last: false,
+                    smooth: s,
+                })
+            })
+            .collect(),
+    ));
+    // Centroid offset: the correction its library form makes at a few distances (amplitude
+    // free), each a column.
+    let mut cv = Vec::new();
+    for o in [3.0, 8.0, 16.0] {
+        let mut a = lin.base.clone();
+        a.effects
+            .push(("centroid_offset".into(), vec![o]));
+        let p = candidates::predict(&a, ds);
+        let col = DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| {
+            let (i, ax) = (s / 2, s % 2);
+            let d = rc.w[ax] * (p[i][ax] - lin.p0[i][ax]);
+            if d.is_finite() {
+                d
+            } else {
+                0.0
+            }
+        });
+        if col.norm() > 1e-9 {
+            cv.push(Variant::Column("offset", col));
+        }
+    }
+    if !cv.is_empty() {
+        out.push(("centroid_offset", cv));
+    }
+    out.push((
+        "camera_bias",
+        vec![Variant::Column(
+            "offset",
+            DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| rc.w[s % 2]),
+        )],
+    ));
+    out.push(("local_anomaly", vec![Variant::Anomaly]));
+    out.retain(|(_, v)| {
+        v.iter()
+            .all(|x| !matches!(x, Variant::Shape(f) if f.knots.len() < 2))
+    });
+    out
+}
+
+/// Columns and penalty of a fixed variant.
+fn columns_of(v: &Variant, rc: &RowCtx) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    match v {
+        Variant::Shape(f) => Some(shapes::columns(f, rc)),
+        Variant::Column(_, c) => Some((c.clone(), DMatrix::identity(1, 1) * 1e-8)),
+        Variant::Anomaly => None,
+    }
+}
+
+/// The indicator columns (one per axis) of the strongest small box of the in-sample
+/// residual `e0` (weighted, stacked).
+fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
+    let ds = lin.ds;
+    let r0 = detect::unweight(e0, lin.rc.w);
+    let sd = noise::estimate(ds, &r0)
+        .map(|n| n.visit)
+        .unwrap_or(lin.noise.visit);
+    let (_, _, zr, fr) = detect::box_scan(ds, &r0, sd, true);
+    let (cell, _, _) = noise::cells(ds);
+    let n = ds.rows.len();
+    let mut a = DMatrix::zeros(2 * n, 2);
+    for (i, r) in ds.rows.iter().enumerate() {
+        let (zi, fi) = cell[r.visit];
+        if zi >= zr.0 && zi <= zr.1 && fi >= fr.0 && fi <= fr.1 {
+            for ax in 0..2 {
+                a[(2 * i + ax, ax)] = lin.rc.w[ax];
+            }
+        }
+    }
+    (a, DMatrix::identity(2, 2) * 1e-8)
+}
+
+/// Withheld gain (halved drop of the withheld SSE, per axis studentised by `rho`) of `cand`
+/// over `cur` on the weighted residual `y`.
+fn gain(cur: &Solver, cand: &Solver, y: &DVector<f64>, rho: [f64; 2]) -> f64 {
+    let s0 = linear::sse_axes(&cur.cv_residual(y));
+    let s1 = linear::sse_axes(&cand.cv_residual(y));
+    0.5 * ((s0[0] - s1[0]) / rho[0] + (s0[1] - s1[1]) / rho[1])
+}
+
+/// Quantile of a sample.
+fn quantile(x: &[f64], q: f64) -> f64 {
+    if x.is_empty() {
+        return f64::NAN;
+    }
+    let mut v = x.to_vec();
+    v.sort_by(|a, b| a.total_cmp(b));
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+/// One candidate's result in a round.
+struct Scored {
+    name: &'static str,
+    gain: f64,
+    null: Vec<f64>,
+    p: f64,
+    best: Option<Variant>,
+    variant: String,
+}
+
+fn describe(v: &Variant) -> String {
+    match v {
+        Variant::Shape(f) => format!(
+            "learned shape over {} ({} knots, smoothing {})",
+            f.axis.label(),
+            f.knots.len(),
+            f.smooth
+        ),
+        Variant::Column(n, _) => format!("library form's {n} (amplitude free)"),
+        Variant::Anomaly => "strongest small box of operating points".into(),
+    }
+}
+
+/// Score every candidate on top of design `cur` by its withheld gain and its bootstrap null.
+fn score_round(
+    lin: &Linear,
+    cur: &Design,
+    cands: &[(&'static str, Vec<Variant>)],
+    st: &Settings,
+    round: usize,
+) -> Option<Vec<Scored>> {
+    let ds = lin.ds;
+    let cur_s = Solver::new(cur, &lin.fold_of_stacked, lin.k)?;
+    let one = vec![0usize; lin.y.len()];
+    let cur_in = Solver::new(cur, &one, 1)?;
+    // Fixed variants factor once.
+    let fixed: Vec<Vec<Option<Solver>>> = cands
+        .iter()
+        .map(|(_, vs)| {
+            vs.iter()
+                .map(|v| {
+                    columns_of(v, &lin.rc).and_then(|(c, p)| {
+                        Solver::new(&cur.extend(&c, &p), &lin.fold_of_stacked, lin.k)
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    // Gains of every candidate (best variant) on one weighted residual.
+    let gains_of = |y: &DVector<f64>, real_sd: Option<[f64; 2]>| -> Option<Vec<(f64, usize)>> {
+        let e0 = cur_in.residual(y);
+        let r0 = detect::unweight(&e0, lin.rc.w);
+        let sd = noise::estimate(ds, &r0).ok()?.visit;
+        let rho = match real_sd {
+            Some(r) => [(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)],
+            None => [1.0, 1.0],
+        };
+        let mut out = Vec::with_capacity(cands.len());
+        for (ci, (_, vs)) in cands.iter().enumerate() {
+            let mut best = (f64::NEG_INFINITY, 0);
+            for (vi, v) in vs.iter().enumerate() {
+                let g = match v {
+                    Variant::Anomaly => {
+                        let (c, p) = anomaly_columns(lin, &e0);
+                        match Solver::new(&cur.extend(&c, &p), &lin.fold_of_stacked, lin.k) {
+                            Some(s) => gain(&cur_s, &s, y, rho),
+                            None => f64::NEG_INFINITY,
+                        }
+                    }
+                    _ => match &fixed[ci][vi] {
+                        Some(s) => gain(&cur_s, s, y, rho),
+                        None => f64::NEG_INFINITY,
+                    },
+                };
+                if g > best.0 {
+                    best = (g, vi);
+                }
+            }
+            out.push(best);
+        }
+        Some(out)
+    };
+    let real_sd = noise::estimate(ds, &detect::unweight(&cur_in.residual(&lin.y), lin.rc.w))
+        .ok()?
+        .visit;
+    let obs = gains_of(&lin.y, None)?;
+    let seed = st.seed ^ (round as u64).wrapping_mul(0xA77_0001);
+    let null: Vec<Vec<(f64, usize)>> = (0..st.boot)
+        .into_par_iter()
+        .filter_map(|b| {
+            let y = noise::simulate(ds, &lin.noise, lin.rc.w, seed, b);
+            gains_of(&y, Some(real_sd))
+        })
+        .collect();
+    let one_fold_e0 = cur_in.residual(&lin.y);
+    Some(
+        cands
+            .iter()
+            .enumerate()
+            .map(|(ci, (name, vs))| {
+                let nl: Vec<f64> = null.iter().map(|v| v[ci].0).collect();
+                let (g, vi) = obs[ci];
+                let best = match &vs[vi] {
+                    Variant::Anomaly => {
+                        let (c, _) = anomaly_columns(lin, &one_fold_e0);
+                        Some(Variant::Column("box", c))
+                    }
+                    v => Some(v.clone()),
+                };
+                Scored {
+                    name,
+                    gain: g,
+                    p: noise::boot_p(g, &nl),
+                    null: nl,
+                    variant: describe(&vs[vi]),
+                    best,
+                }
+            })
+            .collect(),
+    )
+}
+
+/// The detection setting on design `d`.
+fn setting<'b>(lin: &'b Linear, d: &'b Design, st: &Settings) -> Setting<'b> {
+    Setting {
+        ds: lin.ds,
+        rc: &lin.rc,
+        y: &lin.y,
+        base: d,
+        noise: &lin.noise,
+        boot: st.boot,
+        seed: st.seed ^ 0xD7EC,
+    }
+}
+
+/// A model from the linear fit of design `d` (the baseline's free parameters moved by their
+/// coefficients) and the learned shapes of the named effects.
+fn linear_model(lin: &Linear, d: &Design, learned: &[(String, Family)]) -> Option<Augmented> {
+    let g = d.a.tr_mul(&d.a) + &d.pen;
+    let c = nalgebra::Cholesky::new(g)?;
+    let beta = c.solve(&d.a.tr_mul(&lin.y));
+    let inv = c.inverse();
+    let mut aug = lin.base.clone();
+    // Free parameters: columns were scaled to unit norm; recover the step per column.
+    let n = lin.ds.rows.len();
+    for (col, f) in lin.free.iter().enumerate() {
+        let th = params::get(&lin.base.model, f.name());
+        let h = 1e-4 * th.abs().max(1e-3);
+        let mut b = lin.base.clone();
+        params::set(&mut b.model, f.name(), th + h);
+        let p = candidates::predict(&b, lin.ds);
+        let mut nrm = 0.0;
+        for i in 0..n {
+            for ax in 0..2 {
+                let dd = lin.rc.w[ax] * (p[i][ax] - lin.p0[i][ax]) / h;
+                if dd.is_finite() {
+                    nrm += dd * dd;
                 }
             }
         }
-        Evaluated {
-            names,
-            full,
-            pred,
-            cv,
+        let nrm = nrm.sqrt();
+        if nrm > 0.0 {
+            let v = (th + beta[col] / nrm).clamp(f.lo, f.hi);
+            params::set(&mut aug.model, f.name(), v);
         }
     }
-
-    /// Per-visit withheld SSE in row-SD units.
-    fn visit_sse(&self, e: &Evaluated) -> Vec<f64> {
-        let mut s = vec![0.0; self.ds.visits.len()];
-        for (i, r) in self.ds.rows.iter().enumerate() {
-            for a in 0..2 {
-                let d = (e.cv[i][a] - r.r[a]) / self.sd[a];
-                s[r.visit] += d * d;
-            }
-        }
-        s
+    let mut at = lin.free.len();
+    for (name, fam) in learned {
+        let (cols, _) = shapes::columns(fam, &lin.rc);
+        let q = cols.ncols();
+        let coef: Vec<f64> = (0..q).map(|j| beta[at + j]).collect();
+        let sd: Vec<f64> = (0..q).map(|j| inv[(at + j, at + j)].max(0.0).sqrt()).collect();
+        aug.learned.push((name.clone(), shapes::shape_of(fam, &coef, &sd)));
+        at += q;
     }
+    Some(aug)
 }
 
 fn residuals(ds: &Dataset, pred: &[[f64; 2]]) -> Vec<[f64; 2]> {
@@ -186,253 +612,300 @@ fn residuals(ds: &Dataset, pred: &[[f64; 2]]) -> Vec<[f64; 2]> {
         .collect()
 }
 
-fn visit_means(ds: &Dataset, v: &[[f64; 2]]) -> Vec<f64> {
-    let vr = gap::visit_residuals(ds, v);
-    vr.e.iter().flat_map(|e| [e[0], e[1]]).collect()
-}
-
 /// Run the attribution.
 #[allow(clippy::too_many_arguments)]
 pub fn attribute(
-    ds: &Dataset,
-    ctx: &Ctx,
-    baseline: &Augmented,
-    free: &[Free],
-    sd: [f64; 2],
+    lin: &Linear,
+    fold_of_visit: &[usize],
     regions: &[Region],
     base_map: &[[f64; 2]],
     st: Settings,
-    relocalise: &(dyn Fn(&[[f64; 2]]) -> Vec<Region> + Sync),
     progress: &indicatif::ProgressBar,
 ) -> Attribution {
-    let nv = ds.visits.len();
-    let k = st.folds.min(nv).max(2);
-    let fold_of_visit = folds(nv, k, st.seed);
-    let env = Env {
-        ds,
-        ctx,
-        free,
-        sd,
-        fold_of_visit: &fold_of_visit,
-        k,
-    };
-    let base = env.evaluate(baseline, Vec::new(), &[]);
-    progress.inc(1);
-    let mut current = base.clone();
-    let mut accepted: Vec<String> = Vec::new();
-    let mut evals: Vec<CandidateEval> = Vec::new();
-    let mut ambiguous = Vec::new();
-    if regions.is_empty() {
-        // No significant gap: nothing to attribute.
-        for n in candidates::NAMES {
-            progress.inc(1);
-            let _ = n;
+    let (ds, ctx) = (lin.ds, lin.ctx);
+    let eval_of = |d: &Design, names: Vec<String>, aug: Augmented| -> Evaluated {
+        let (pred, cv) = lin
+            .evaluate(d)
+            .unwrap_or_else(|| (lin.p0.clone(), lin.p0.clone()));
+        Evaluated {
+            names,
+            full: FitResult {
+                aug,
+                cost: 0.0,
+                at_bound: Vec::new(),
+            },
+            pred,
+            cv,
         }
-        return Attribution {
-            baseline: base.clone(),
-            augmented: base,
-            accepted,
-            evals,
-            ambiguous,
-            fold_of_visit,
-        };
+    };
+    let base_aug = linear_model(lin, &lin.jac, &[]).unwrap_or_else(|| lin.base.clone());
+    let base = eval_of(&lin.jac, Vec::new(), base_aug);
+    progress.inc(1);
+    let mut out = Attribution {
+        baseline: base.clone(),
+        augmented: base.clone(),
+        accepted: Vec::new(),
+        evals: Vec::new(),
+        ambiguous: Vec::new(),
+        fold_of_visit: fold_of_visit.to_vec(),
+        rounds: Vec::new(),
+        anomaly_won: false,
+    };
+    if regions.is_empty() {
+        return out;
     }
-    let mut regions: Vec<Region> = regions.to_vec();
+    let cands = variants(lin);
+    let mut cur = lin.jac.clone();
+    // Named effects: (name, the variant that entered the design).
+    let mut named: Vec<(String, Variant)> = Vec::new();
     for round in 1..=st.max_effects {
-        let sse_cur = env.visit_sse(&current);
-        let res_cur = residuals(ds, &current.pred);
         if round > 1 {
-            // The next effect must explain what the accepted ones leave: the gap tests and the
-            // regions on the current residuals. No gap left: stop.
-            regions = relocalise(&res_cur);
-            if regions.is_empty() {
+            let det = detect::detect(&setting(lin, &cur, &st), st.alpha);
+            let go = det.as_ref().map(|d| d.significant).unwrap_or(false);
+            if let Some(d) = det {
+                out.rounds.push(d);
+            }
+            if !go {
                 break;
             }
         }
-        let todo: Vec<&str> = candidates::NAMES
+        let todo: Vec<(&'static str, Vec<Variant>)> = cands
             .iter()
-            .copied()
-            .filter(|n| !accepted.iter().any(|a| a == n))
+            .filter(|(n, _)| !named.iter().any(|(a, _)| a == n))
+            .cloned()
             .collect();
-        // Fit the candidates in parallel (each is independent).
-        let threads = std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-            .clamp(1, 4);
-        let results: Vec<(usize, Evaluated)> = std::thread::scope(|sc| {
-            let env = &env;
-            let current = &current;
-            let todo = &todo;
-            let handles: Vec<_> = (0..threads)
-                .map(|t| {
-                    sc.spawn(move || {
-                        let mut out = Vec::new();
-                        for (j, name) in todo.iter().enumerate().skip(t).step_by(threads) {
-                            let mut start = current.full.aug.clone();
-                            start
-                                .effects
-                                .push((name.to_string(), candidates::neutral(name, env.ctx)));
-                            let starts = candidates::starts(name, env.ctx, env.ds);
-                            let mut names = current.names.clone();
-                            names.push(name.to_string());
-                            out.push((j, env.evaluate(&start, names, &starts)));
-                            progress.inc(1);
-                        }
-                        out
-                    })
-                })
-                .collect();
-            let mut all: Vec<(usize, Evaluated)> = handles
-                .into_iter()
-                .flat_map(|h| h.join().expect("candidate thread"))
-                .collect();
-            all.sort_by_key(|x| x.0);
-            all
-        });
-        let mut round_evals: Vec<CandidateEval> = Vec::new();
-        for (j, model) in results {
-            let name = todo[j].to_string();
-            let sse = env.visit_sse(&model);
-            let gains: Vec<f64> = sse_cur
-                .iter()
-                .zip(&sse)
-                .map(|(a, b)| (a - b) / 2.0)
-                .collect();
-            let gain: f64 = gains.iter().sum();
-            let (_, t, _) = stats::one_sample_t(&gains);
-            let p = if gains.len() >= 3 && t.is_finite() {
-                stats::t_sf(t, (gains.len() - 1) as f64)
-            } else if t == f64::INFINITY {
-                0.0
-            } else {
-                1.0
-            };
-            let npar = candidates::params(&name, ctx).len();
-            let penalty = npar as f64 / 2.0 * (nv as f64).ln();
-            let mut implausible: Vec<String> = model
-                .full
-                .at_bound
-                .iter()
-                .filter(|(e, _)| *e == name)
-                .map(|(_, p)| format!("{p} at its bound"))
-                .collect();
-            implausible.extend(candidates::implausible(&name, &model.full.aug, ctx));
-            let res_new = residuals(ds, &model.pred);
-            let mut signature = (0.0f64, None);
-            for (ri, r) in regions.iter().enumerate() {
-                let before = gap::region_mean(ds, &res_cur, base_map, r);
-                let after = gap::region_mean(ds, &res_new, base_map, r);
-                if before.abs() > 1e-12 {
-                    let share = 1.0 - after.abs() / before.abs();
-                    if share > signature.0 {
-                        signature = (share, Some(ri));
-                    }
-                }
-            }
-            let others = gain > penalty && p < st.alpha && implausible.is_empty();
-            let closes_gap = others && signature.0 < 0.5 && relocalise(&res_new).is_empty();
-            if closes_gap && signature.1.is_none() {
-                signature.1 = Some(0);
-            }
-            let passed = others && (signature.0 >= 0.5 || closes_gap);
-            round_evals.push(CandidateEval {
-                name,
-                round,
-                model,
-                gain,
-                penalty,
-                p,
-                implausible,
-                signature,
-                closes_gap,
-                passed,
-                accepted: false,
-                ambiguous_with: Vec::new(),
-            });
-        }
-        // Best passing, and who it cannot be told apart from.
-        let mut passing: Vec<usize> = (0..round_evals.len())
-            .filter(|&i| round_evals[i].passed)
+        let Some(scored) = score_round(lin, &cur, &todo, &st, round) else {
+            break;
+        };
+        progress.inc(1);
+        let mut order: Vec<usize> = (0..scored.len())
+            .filter(|&i| scored[i].p < st.alpha && scored[i].gain > 0.0)
             .collect();
-        passing.sort_by(|&a, &b| round_evals[b].gain.total_cmp(&round_evals[a].gain));
-        let mut chosen = None;
-        if let Some(&b) = passing.first() {
-            let sse_b = env.visit_sse(&round_evals[b].model);
-            let d_b: Vec<f64> = {
-                let p = visit_means(ds, &round_evals[b].model.pred);
-                let c = visit_means(ds, &current.pred);
-                p.iter().zip(&c).map(|(x, y)| x - y).collect()
-            };
-            let mut amb = Vec::new();
-            for &o in passing.iter().skip(1) {
-                let sse_o = env.visit_sse(&round_evals[o].model);
-                let diff: Vec<f64> = sse_o
+        order.sort_by(|&a, &b| scored[b].gain.total_cmp(&scored[a].gain));
+        let best = order.first().copied();
+        let winner = best.map(|b| scored[b].name);
+        for (i, s) in scored.iter().enumerate() {
+            if s.name == "local_anomaly" {
+                continue;
+            }
+            let accepted = Some(i) == best && winner != Some("local_anomaly");
+            let close: Vec<String> = match best {
+                Some(b) if i == b => order
                     .iter()
-                    .zip(&sse_b)
-                    .map(|(a, b)| (a - b) / 2.0)
-                    .collect();
-                let (_, t, _) = stats::one_sample_t(&diff);
-                let p = if t.is_finite() {
-                    stats::t_sf(t, (diff.len().max(2) - 1) as f64)
-                } else {
-                    0.0
-                };
-                let d_o: Vec<f64> = {
-                    let p = visit_means(ds, &round_evals[o].model.pred);
-                    let c = visit_means(ds, &current.pred);
-                    p.iter().zip(&c).map(|(x, y)| x - y).collect()
-                };
-                let same_region = round_evals[o].signature.1.is_some()
-                    && round_evals[o].signature.1 == round_evals[b].signature.1;
-                if p > 0.05 && (stats::corr(&d_b, &d_o) > 0.7 || same_region) {
-                    amb.push(o);
-                }
-            }
-            if amb.is_empty() {
-                chosen = Some(b);
-            } else {
-                let names: Vec<String> = std::iter::once(b)
-                    .chain(amb.iter().copied())
-                    .map(|i| round_evals[i].name.clone())
-                    .collect();
-                for &i in std::iter::once(&b).chain(amb.iter()) {
-                    round_evals[i].ambiguous_with = names
-                        .iter()
-                        .filter(|n| **n != round_evals[i].name)
-                        .cloned()
-                        .collect();
-                }
-                for o in &amb {
-                    ambiguous.push((round_evals[b].name.clone(), round_evals[*o].name.clone()));
-                }
-            }
-        }
-        let stop = chosen.is_none();
-        if let Some(b) = chosen {
-            round_evals[b].accepted = true;
-            accepted.push(round_evals[b].name.clone());
-            current = round_evals[b].model.clone();
-        }
-        // Keep the latest evaluation of each candidate.
-        for e in round_evals {
-            if let Some(old) = evals.iter_mut().find(|x| x.name == e.name) {
+                    .skip(1)
+                    .filter(|&&j| scored[j].gain >= 0.8 * scored[b].gain)
+                    .map(|&j| scored[j].name.to_string())
+                    .collect(),
+                _ => Vec::new(),
+            };
+            let e = CandidateEval {
+                name: s.name.to_string(),
+                round,
+                model: base.clone(),
+                gain: s.gain,
+                penalty: quantile(&s.null, 1.0 - st.alpha),
+                p: s.p,
+                variant: s.variant.clone(),
+                implausible: Vec::new(),
+                signature: (0.0, None),
+                closes_gap: false,
+                passed: s.p < st.alpha && s.gain > 0.0,
+                accepted,
+                ambiguous_with: close,
+                form: Form::Parametric,
+                form_gains: None,
+            };
+            if let Some(old) = out.evals.iter_mut().find(|x| x.name == e.name) {
                 if !old.accepted {
                     *old = e;
                 }
             } else {
-                evals.push(e);
+                out.evals.push(e);
             }
         }
-        if stop {
+        let Some(b) = best else { break };
+        if scored[b].name == "local_anomaly" {
+            out.anomaly_won = true;
             break;
         }
+        for a in out
+            .evals
+            .iter()
+            .find(|e| e.name == scored[b].name)
+            .map(|e| e.ambiguous_with.clone())
+            .unwrap_or_default()
+        {
+            out.ambiguous.push((scored[b].name.to_string(), a));
+        }
+        let v = scored[b].best.clone().expect("a variant");
+        if let Some((c, p)) = columns_of(&v, &lin.rc) {
+            cur = cur.extend(&c, &p);
+        }
+        named.push((scored[b].name.to_string(), v));
+        out.accepted.push(scored[b].name.to_string());
     }
-    Attribution {
-        baseline: base,
-        augmented: current,
-        accepted,
-        evals,
-        ambiguous,
-        fold_of_visit,
+    if named.is_empty() {
+        return out;
+    }
+    // The form of each named effect, and the final model.
+    let (aug, design) = choose_forms(lin, &named, &mut out, st, progress);
+    // Detection on what the final model leaves (the closing round).
+    if out.rounds.len() < named.len() {
+        if let Some(d) = detect::detect(&setting(lin, &design, &st), st.alpha) {
+            out.rounds.push(d);
+        }
+    }
+    let left_significant = out.rounds.last().map(|d| d.significant).unwrap_or(false);
+    let names = out.accepted.clone();
+    let mut ev = eval_of(&design, names, aug.clone());
+    // In-sample predictions through the model itself (what `predict` and the FMU replay).
+    ev.pred = candidates::predict(&aug, ds);
+    out.augmented = ev;
+    // Reasons, for the table: the library form's plausibility, regions' residual removed.
+    let res_base = residuals(ds, &base.pred);
+    let res_aug = residuals(ds, &out.augmented.pred);
+    for e in out.evals.iter_mut().filter(|e| e.accepted) {
+        e.model = out.augmented.clone();
+        e.closes_gap = !left_significant;
+        e.implausible = candidates::implausible(&e.name, &aug, ctx);
+        for (ri, r) in regions.iter().enumerate() {
+            let before = gap::region_mean(ds, &res_base, base_map, r);
+            let after = gap::region_mean(ds, &res_aug, base_map, r);
+            if before.abs() > 1e-12 {
+                let share = 1.0 - after.abs() / before.abs();
+                if share > e.signature.0 {
+                    e.signature = (share, Some(ri));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// For each named effect, its library form against its learned shape; the final model and
+/// its design.
+fn choose_forms(
+    lin: &Linear,
+    named: &[(String, Variant)],
+    out: &mut Attribution,
+    st: Settings,
+    progress: &indicatif::ProgressBar,
+) -> (Augmented, Design) {
+    let ds = lin.ds;
+    let mut design = lin.jac.clone();
+    let mut learned: Vec<(String, Family)> = Vec::new();
+    let mut parametric: Vec<String> = Vec::new();
+    let one = vec![0usize; lin.y.len()];
+    for (name, v) in named {
+        let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
+        let shape_design = columns_of(v, &lin.rc).map(|(c, p)| design.extend(&c, &p));
+        let g_learned = match (&before, &shape_design) {
+            (Some(b), Some(d)) => Solver::new(d, &lin.fold_of_stacked, lin.k)
+                .map(|s| gain(b, &s, &lin.y, [1.0, 1.0]))
+                .unwrap_or(f64::NEG_INFINITY),
+            _ => f64::NEG_INFINITY,
+        };
+        // The library form: fitted by the nonlinear fitter on top of the baseline and the
+        // library forms named before it, its correction then one column of the design.
+        let mut start = lin.base.clone();
+        for p in &parametric {
+            start.effects.push((p.clone(), candidates::neutral(p, lin.ctx)));
+        }
+        start
+            .effects
+            .push((name.clone(), candidates::neutral(name, lin.ctx)));
+        let starts = candidates::starts(name, lin.ctx, ds);
+        let all: Vec<usize> = (0..ds.rows.len()).collect();
+        let fr = fitter::fit(
+            &start,
+            lin.free,
+            ds,
+            lin.ctx,
+            &all,
+            lin.noise.row(),
+            &starts,
+        );
+        progress.inc(1);
+        let p_fit = candidates::predict(&fr.aug, ds);
+        let col = DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| {
+            let (i, ax) = (s / 2, s % 2);
+            let d = lin.rc.w[ax] * (p_fit[i][ax] - lin.p0[i][ax]);
+            if d.is_finite() {
+                d
+            } else {
+                0.0
+            }
+        });
+        // The library form's correction less what the free parameters already span.
+        let col = match Solver::new(&lin.jac, &one, 1) {
+            Some(s) => {
+                let r = s.residual(&DVector::from_column_slice(col.as_slice()));
+                DMatrix::from_column_slice(r.len(), 1, r.as_slice())
+            }
+            None => col,
+        };
+        let param_design = design.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
+        let g_param = match &before {
+            Some(b) if col.norm() > 1e-9 => Solver::new(&param_design, &lin.fold_of_stacked, lin.k)
+                .map(|s| gain(b, &s, &lin.y, [1.0, 1.0]))
+                .unwrap_or(f64::NEG_INFINITY),
+            _ => f64::NEG_INFINITY,
+        };
+        let use_learned = matches!(v, Variant::Shape(_))
+            && g_learned.is_finite()
+            && g_param < 0.9 * g_learned;
+        let e = out.evals.iter_mut().find(|e| &e.name == name);
+        if use_learned {
+            let Variant::Shape(f) = v else { unreachable!() };
+            learned.push((name.clone(), f.clone()));
+            design = shape_design.expect("shape design");
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned));
+            }
+        } else {
+            parametric.push(name.clone());
+            design = param_design;
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned));
+            }
+        }
+        let _ = st;
+    }
+    // The final model: learned heights and the free parameters from the linear fit; the
+    // library forms refitted by the nonlinear fitter with the learned shapes held.
+    let mut aug = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
+        .unwrap_or_else(|| lin.base.clone());
+    if !parametric.is_empty() {
+        for p in &parametric {
+            aug.effects.push((p.clone(), candidates::neutral(p, lin.ctx)));
+        }
+        let last = parametric.last().cloned().unwrap_or_default();
+        let starts = if parametric.len() == 1 {
+            candidates::starts(&last, lin.ctx, ds)
+        } else {
+            Vec::new()
+        };
+        let all: Vec<usize> = (0..ds.rows.len()).collect();
+        let fr = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &starts);
+        aug = fr.aug;
+    }
+    aug.sync_model();
+    for (name, sh) in &aug.learned {
+        if let Some(e) = out.evals.iter_mut().find(|e| &e.name == name) {
+            e.form = Form::Learned(sh.clone());
+        }
+    }
+    (aug, design)
+}
+
+impl Linear<'_> {
+    /// The Jacobian design with the learned shapes' columns (in order).
+    fn jac_only_learned(&self, learned: &[(String, Family)]) -> Design {
+        let mut d = self.jac.clone();
+        for (_, f) in learned {
+            let (c, p) = shapes::columns(f, &self.rc);
+            d = d.extend(&c, &p);
+        }
+        d
     }
 }

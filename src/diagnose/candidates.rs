@@ -26,6 +26,7 @@
 //! frequencies measured?
 
 use super::data::Dataset;
+use super::shapes::{self, Mode, Shape};
 use magswarm_model::effects::{self, Effects, FormationLag};
 use magswarm_model::registry::{self, Transform};
 use magswarm_model::{hz_to_rad_s, steady, Model};
@@ -315,6 +316,10 @@ pub struct Augmented {
     pub effects: Vec<(String, Vec<f64>)>,
     /// |B| at the middle of the data's z_m range [T] (the reference of `phase_lag`'s f_mid).
     pub b_mid: f64,
+    /// Learned shapes along effects' axes (name of the effect, shape), in order of addition:
+    /// applied by [`predict`] after the parametric effects, and written into the model file
+    /// as learned effect terms by [`Augmented::model_file`].
+    pub learned: Vec<(String, Shape)>,
 }
 
 impl Augmented {
@@ -326,6 +331,7 @@ impl Augmented {
             model,
             effects: Vec::new(),
             b_mid: ctx.b_mid,
+            learned: Vec::new(),
         }
     }
 
@@ -337,11 +343,23 @@ impl Augmented {
         }
     }
 
-    /// The model with every active candidate switched on.
+    /// The model with every active parametric candidate switched on (learned shapes are
+    /// applied by [`predict`], not by the model).
     pub fn synced(&self) -> Model {
         let mut a = self.clone();
         a.sync_model();
         a.model
+    }
+
+    /// The model file: the parametric candidates switched on and the learned shapes as the
+    /// model's learned effect terms, so that `predict`, the FMU and the bridge's shadow model
+    /// run them.
+    pub fn model_file(&self) -> Model {
+        let mut m = self.synced();
+        for (name, sh) in &self.learned {
+            super::learned::push(&mut m, name, sh, self.b_mid);
+        }
+        m
     }
 }
 
@@ -444,7 +462,64 @@ pub fn predict(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
             *o = fx.observe(*o, r.t);
         }
     }
+    if !aug.learned.is_empty() {
+        apply_learned(aug, &m, ds, &map, &mut out);
+    }
     out
+}
+
+/// Apply the learned shapes row by row, as the model's learned terms act: shapes over f and
+/// z_m on the steady radii, over session time on the observed radii, over the time since the
+/// last input change as a fraction of that change's step of the steady map (the map with the
+/// shapes over f and z_m; zero for a session's first visit).
+fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out: &mut [[f64; 2]]) {
+    let ln_b: Vec<f64> = ds
+        .points
+        .iter()
+        .map(|&(z, _)| (field_b(m, z) / aug.b_mid).max(1e-300).ln())
+        .collect();
+    let x_of = |axis: shapes::Axis, p: usize, t: f64, since: f64| -> f64 {
+        let (z, f) = ds.points[p];
+        match axis {
+            shapes::Axis::F { nu } => f * (-nu * ln_b[p]).exp(),
+            shapes::Axis::Z => z,
+            shapes::Axis::T => t,
+            shapes::Axis::Since => since,
+        }
+    };
+    let steady_axes = |a: shapes::Axis| matches!(a, shapes::Axis::F { .. } | shapes::Axis::Z);
+    // The steady map with the learned steady shapes, per point.
+    let mut map2 = map.to_vec();
+    for (_, sh) in aug.learned.iter().filter(|(_, s)| steady_axes(s.family.axis)) {
+        for (p, v) in map2.iter_mut().enumerate() {
+            let c = sh.at(x_of(sh.family.axis, p, 0.0, 0.0));
+            for a in 0..2 {
+                match sh.family.mode {
+                    Mode::Relative => v[a] *= 1.0 + c[a],
+                    _ => v[a] += c[a],
+                }
+            }
+        }
+    }
+    for (i, r) in ds.rows.iter().enumerate() {
+        let delta = match ds.visits[r.visit].prev {
+            Some(pv) => {
+                let (a, b) = (map2[r.point], map2[ds.visits[pv].point]);
+                [a[0] - b[0], a[1] - b[1]]
+            }
+            None => [0.0; 2],
+        };
+        for (_, sh) in &aug.learned {
+            let c = sh.at(x_of(sh.family.axis, r.point, r.t, r.since));
+            for a in 0..2 {
+                match sh.family.mode {
+                    Mode::Add => out[i][a] += c[a],
+                    Mode::Relative => out[i][a] *= 1.0 + c[a],
+                    Mode::StepFraction => out[i][a] += c[a] * delta[a],
+                }
+            }
+        }
+    }
 }
 
 /// Blend the slow formation mode into the footprint, row by row: formed at rest at a

@@ -28,10 +28,15 @@
 pub mod attribute;
 pub mod candidates;
 pub mod data;
+pub mod detect;
 pub mod fitter;
 pub mod gap;
 pub mod gp;
+pub mod learned;
+pub mod linear;
+pub mod noise;
 pub mod report;
+pub mod shapes;
 pub mod stats;
 
 use crate::identify::{self, data::SettleRule};
@@ -58,6 +63,8 @@ pub struct Config {
     pub seed: u64,
     /// Most effects accepted together.
     pub max_effects: usize,
+    /// Bootstrap replicates (simulated logs) that calibrate the gap tests and the acceptance.
+    pub boot: usize,
     /// Show progress on a terminal.
     pub progress: bool,
 }
@@ -70,6 +77,7 @@ impl Default for Config {
             permutations: 499,
             seed: 1,
             max_effects: 3,
+            boot: 199,
             progress: false,
         }
     }
@@ -204,7 +212,7 @@ fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
 }
 
 /// Refuse a log that cannot support a diagnosis, naming what is missing.
-fn check_usable(ds: &Dataset, pe: &PureError, source: &str) -> Result<()> {
+fn check_usable(ds: &Dataset, source: &str) -> Result<()> {
     let (zs, fs) = ds.levels();
     if ds.points.len() < 6 {
         bail!(
@@ -227,13 +235,6 @@ fn check_usable(ds: &Dataset, pe: &PureError, source: &str) -> Result<()> {
             "{source}: one z_m only ({} mm): the distance dependence cannot be judged; add \
              visits at other distances",
             zs[0]
-        );
-    }
-    if pe.within_dof == 0 && pe.between_dof == 0 {
-        bail!(
-            "{source}: no repeats: no visit has two or more settled rows and no operating point \
-             was visited twice, so there is no pure error to tell a gap from noise; record \
-             several rows per visit or revisit points"
         );
     }
     Ok(())
@@ -275,9 +276,7 @@ pub fn diagnose(
     let sessions = data::sessions(std::slice::from_ref(log), settle, &baseline);
     let ds = Dataset::build(&sessions, &baseline)?;
     let pe = data::pure_error(&ds);
-    check_usable(&ds, &pe, &log.source)?;
-    let row_sd = pe.row_sd();
-    let sd = [row_sd[0].max(1e-3), row_sd[1].max(1e-3)];
+    check_usable(&ds, &log.source)?;
     let ctx = Ctx::new(&baseline, &ds);
     let base_aug = Augmented::baseline(&baseline, &ctx);
     let base_map = candidates::point_map(&base_aug, &ds);
@@ -288,17 +287,39 @@ pub fn diagnose(
         .zip(&base_pred)
         .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
         .collect();
-    pb.set_message("gap tests");
-    let tests = gap::tests(
+    let noise = noise::estimate(&ds, &res).map_err(|e| anyhow::anyhow!("{}: {e}", log.source))?;
+    let nv = ds.visits.len();
+    let k = cfg.folds.min(nv).max(2);
+    let fold_of_visit = attribute::folds(nv, k, cfg.seed);
+    let n_free = ident.steady.free.len();
+    let lin = attribute::Linear::new(
         &ds,
-        &res,
-        &pe,
-        &base_map,
-        ident.steady.free.len(),
-        cfg.alpha,
-        cfg.permutations,
-        cfg.seed,
+        &ctx,
+        &base_aug,
+        &ident.steady.free,
+        noise,
+        &fold_of_visit,
+        k,
     );
+    pb.set_message("gap tests");
+    let to_tests = |det: &detect::Detection, r: &[[f64; 2]]| -> gap::GapTests {
+        let old = gap::tests(&ds, r, &pe, &base_map, n_free, cfg.alpha, 0, cfg.seed);
+        gap::GapTests::from_detection(old, det)
+    };
+    let det0 = detect::detect(
+        &detect::Setting {
+            ds: &ds,
+            rc: &lin.rc,
+            y: &lin.y,
+            base: &lin.jac,
+            noise: &lin.noise,
+            boot: cfg.boot,
+            seed: cfg.seed ^ 0xD7EC,
+        },
+        cfg.alpha,
+    )
+    .with_context(|| format!("{}: the gap tests could not be computed", log.source))?;
+    let tests = to_tests(&det0, &res);
     let regions = if tests.significant {
         gap::localise(&ds, &res, &base_map, &tests)
     } else {
@@ -306,30 +327,9 @@ pub fn diagnose(
     };
     pb.inc(2);
     pb.set_message("candidates");
-    let n_free = ident.steady.free.len();
-    let relocalise = |r: &[[f64; 2]]| -> Vec<gap::Region> {
-        let t = gap::tests(
-            &ds,
-            r,
-            &pe,
-            &base_map,
-            n_free,
-            cfg.alpha,
-            cfg.permutations,
-            cfg.seed,
-        );
-        if t.significant {
-            gap::localise(&ds, r, &base_map, &t)
-        } else {
-            Vec::new()
-        }
-    };
     let attr = attribute::attribute(
-        &ds,
-        &ctx,
-        &base_aug,
-        &ident.steady.free,
-        sd,
+        &lin,
+        &fold_of_visit,
         &regions,
         &base_map,
         attribute::Settings {
@@ -337,8 +337,8 @@ pub fn diagnose(
             alpha: cfg.alpha,
             max_effects: cfg.max_effects,
             seed: cfg.seed,
+            boot: cfg.boot,
         },
-        &relocalise,
         &pb,
     );
     // Unexplained regions, with the discrepancy's withheld recovery.
@@ -356,18 +356,27 @@ pub fn diagnose(
         .collect();
     let vr_cv = gap::visit_residuals(&ds, &res_cv);
     let pe_aug = data::pure_error_of(&ds, &res_aug);
-    let floor = pe_aug.row_sd();
+    let floor = match noise::estimate(&ds, &res_aug) {
+        Ok(n) => n.row(),
+        Err(_) => pe_aug.row_sd(),
+    };
     let vr_aug = gap::visit_residuals(&ds, &res_aug);
     let xs: Vec<Vec<f64>> = gap::coords(&ds).iter().map(|c| c.to_vec()).collect();
     let ts: Vec<Vec<f64>> = {
         let tmax = ds.visits.iter().map(|v| v.t_mid).fold(1e-9f64, f64::max);
         ds.visits.iter().map(|v| vec![v.t_mid / tmax]).collect()
     };
-    // What the augmented model leaves: the gap tests and regions on its residuals.
+    // What the augmented model leaves: the regions of the last round's gap tests.
     let left = if attr.accepted.is_empty() {
         regions.clone()
     } else {
-        relocalise(&res_aug)
+        match attr.rounds.last() {
+            Some(det) if det.significant => {
+                let t = to_tests(det, &res_aug);
+                gap::localise(&ds, &res_aug, &base_map, &t)
+            }
+            _ => Vec::new(),
+        }
     };
     let mut unexplained = Vec::new();
     for r in &left {

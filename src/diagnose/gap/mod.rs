@@ -371,3 +371,27 @@ pub fn formation_contrasts(
     }
     out
 }
+
+impl GapTests {
+    /// The family tests as the bootstrap-calibrated detection decides them
+    /// ([`super::detect`]); the lack-of-fit F test of `old` is kept for the report.
+    pub fn from_detection(old: GapTests, det: &super::detect::Detection) -> GapTests {
+        let fam = |n: &str| {
+            det.family_p
+                .iter()
+                .find(|f| f.0 == n)
+                .map(|f| f.1)
+                .unwrap_or(1.0)
+        };
+        GapTests {
+            space_p: [fam("inputs"); 2],
+            drift_p: [fam("drift"); 2],
+            trans_p: [fam("formation"); 2],
+            p_value: det.p_value,
+            significant: det.significant,
+            families: det.families.clone(),
+            visit_sd: det.visit_sd,
+            ..old
+        }
+    }
+}

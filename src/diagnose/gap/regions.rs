@@ -42,6 +42,10 @@ pub struct Region {
 }
 
 /// Up to `k` bins of sorted distinct values: (lo, hi) edges per bin.
+pub fn level_bins(vals: &[f64], k: usize) -> Vec<(f64, f64)> {
+    bins(vals, k)
+}
+
 fn bins(vals: &[f64], k: usize) -> Vec<(f64, f64)> {
     let mut v = vals.to_vec();
     v.sort_by(|a, b| a.total_cmp(b));

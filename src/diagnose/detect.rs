@@ -1,0 +1,352 @@
+//! Is there a gap: structure in the residuals beyond what the log's own noise makes, with
+//! power on single-visit designs, calibrated by a parametric bootstrap.
+//!
+//! The residuals of the current model (the baseline, later the baseline with the accepted
+//! effects) are confronted with smooth alternatives, each a penalised linear model refitted
+//! jointly with the model's free parameters ([`super::linear`]):
+//!
+//! | family | alternatives |
+//! | --- | --- |
+//! | `inputs` | a shape over f (bands such as a step-out), a shape over z_m, a smooth surface over (z_m, f) with interaction, and the strongest box of neighbouring operating points (a local anomaly) |
+//! | `drift` | a shape over session time (any monotone or sudden course) |
+//! | `formation` | a shape over the time since each input change, scaled by the step of the steady map (any transient: monotone, overshooting, oscillating) |
+//! | `lack_of_fit` | a free mean per operating point (only where points were revisited) |
+//!
+//! Each statistic is the drop of the residual sum of squares (in units of the row noise) that
+//! the alternative achieves, studentised by the visit noise estimated from the same residuals
+//! ([`super::noise`]). Its null distribution comes from logs of pure noise with the log's
+//! design (visits, rows, sessions) and noise structure (visit offsets and row noise, per axis),
+//! each refitted and re-estimated exactly as the real one. No assumption of independent rows
+//! and no reliance on repeat visits: the roughness of the residual surface gives the visit
+//! noise when each point is visited once. A family's p-value is the smallest of its
+//! alternatives' (Bonferroni within), the gap's the smallest family's (Bonferroni over the
+//! families).
+
+use super::data::Dataset;
+use super::linear::{self, Design, Solver};
+use super::noise::{self, Noise};
+use super::shapes::{self, Axis, Family, Mode, RowCtx};
+use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
+
+/// What the tests see: the data, the rows' context, the weighted residual and the current
+/// design.
+pub struct Setting<'a> {
+    /// Data.
+    pub ds: &'a Dataset,
+    /// Rows' context (current predictions, steps, field).
+    pub rc: &'a RowCtx,
+    /// Weighted residual of the linearisation point (stacked rows).
+    pub y: &'a DVector<f64>,
+    /// The current design (the model's free parameters and accepted shapes).
+    pub base: &'a Design,
+    /// The noise.
+    pub noise: &'a Noise,
+    /// Bootstrap replicates.
+    pub boot: usize,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// One alternative's result.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Alt {
+    /// Family.
+    pub family: &'static str,
+    /// Alternative within it.
+    pub name: &'static str,
+    /// Statistic on the data.
+    pub stat: f64,
+    /// Bootstrap p-value.
+    pub p: f64,
+}
+
+/// The outcome of the tests.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Detection {
+    /// Every alternative.
+    pub alts: Vec<Alt>,
+    /// Family p-values (Bonferroni within).
+    pub family_p: Vec<(&'static str, f64)>,
+    /// The gap's p-value (Bonferroni over families).
+    pub p_value: f64,
+    /// Significant at alpha.
+    pub significant: bool,
+    /// Families significant after the correction.
+    pub families: Vec<&'static str>,
+    /// Visit noise of the current residual, per axis [mm].
+    pub visit_sd: [f64; 2],
+}
+
+/// The smooth alternatives (family name, alternative name, shape family) for a data set.
+pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static str, Family)> {
+    let (zs, fs) = ds.levels();
+    let mut out = vec![
+        (
+            "inputs",
+            "f_shape",
+            Family {
+                axis: Axis::F { nu: 0.0 },
+                mode: Mode::Add,
+                knots: shapes::knots_of(&fs, 10),
+                pin_last: false,
+                smooth: 0.3,
+            },
+        ),
+        (
+            "inputs",
+            "z_shape",
+            Family {
+                axis: Axis::Z,
+                mode: Mode::Add,
+                knots: shapes::knots_of(&zs, 8),
+                pin_last: false,
+                smooth: 0.3,
+            },
+        ),
+        (
+            "drift",
+            "t_shape",
+            Family {
+                axis: Axis::T,
+                mode: Mode::Add,
+                knots: shapes::knots_of(&rc.t, 8),
+                pin_last: false,
+                smooth: 0.3,
+            },
+        ),
+    ];
+    if let Some(f) = since_family(rc, 0.3) {
+        out.push(("formation", "since_shape", f));
+    }
+    out.retain(|(_, _, f)| f.knots.len() >= 2);
+    out
+}
+
+/// The transient family: knots over the times since a change of the rows that follow one, and
+/// a last knot well past them pinned at 0 (the transient dies out). None without changes.
+pub fn since_family(rc: &RowCtx, smooth: f64) -> Option<Family> {
+    let s: Vec<f64> = (0..rc.len())
+        .filter(|&i| rc.delta[i][0] != 0.0 || rc.delta[i][1] != 0.0)
+        .map(|i| rc.since[i])
+        .collect();
+    let mut knots = shapes::knots_of(&s, 6);
+    let last = *knots.last()?;
+    if knots.len() < 2 || last <= 0.0 {
+        return None;
+    }
+    knots.push(3.0 * last);
+    Some(Family {
+        axis: Axis::Since,
+        mode: Mode::StepFraction,
+        knots,
+        pin_last: true,
+        smooth,
+    })
+}
+
+/// Tensor-product hats over (z_m, f): a smooth surface with interaction, ridge-penalised.
+fn surface(ds: &Dataset, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
+    let (zs, fs) = ds.levels();
+    let kz = shapes::knots_of(&zs, 5);
+    let kf = shapes::knots_of(&fs, 6);
+    let k = kz.len() * kf.len();
+    let n = rc.len();
+    let mut a = DMatrix::zeros(2 * n, 2 * k);
+    for i in 0..n {
+        for (jz, wz) in shapes::hat(&kz, rc.z[i]) {
+            for (jf, wf) in shapes::hat(&kf, rc.f[i]) {
+                for ax in 0..2 {
+                    a[(2 * i + ax, ax * k + jz * kf.len() + jf)] = wz * wf * rc.w[ax];
+                }
+            }
+        }
+    }
+    let info = (0..2 * k).map(|c| a.column(c).norm_squared()).sum::<f64>() / (2 * k) as f64;
+    let pen = DMatrix::identity(2 * k, 2 * k) * (0.3 * info.max(1e-12));
+    (a, pen)
+}
+
+/// A free mean per operating point (the lack-of-fit alternative).
+fn point_means(ds: &Dataset, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
+    let k = ds.points.len();
+    let mut a = DMatrix::zeros(2 * rc.len(), 2 * k);
+    for (i, r) in ds.rows.iter().enumerate() {
+        for ax in 0..2 {
+            a[(2 * i + ax, ax * k + r.point)] = rc.w[ax];
+        }
+    }
+    let info = (0..2 * k).map(|c| a.column(c).norm_squared()).sum::<f64>() / (2 * k) as f64;
+    let pen = DMatrix::identity(2 * k, 2 * k) * (1e-3 * info.max(1e-12));
+    (a, pen)
+}
+
+/// Unweighted row residuals [mm] of stacked weighted ones.
+pub fn unweight(e: &DVector<f64>, w: [f64; 2]) -> Vec<[f64; 2]> {
+    (0..e.len() / 2)
+        .map(|i| [e[2 * i] / w[0], e[2 * i + 1] / w[1]])
+        .collect()
+}
+
+/// The strongest box of neighbouring cells of the (z_m, f) grid: max over axes and boxes of
+/// |sum of visit residuals| / (visit SD sqrt(visits)). With `proper`, only boxes that span
+/// neither every z_m level nor every f level and hold at most a quarter of the visits (a
+/// local anomaly, not a shape along one input). Returns (statistic, axis, z cells, f cells).
+pub fn box_scan(
+    ds: &Dataset,
+    res: &[[f64; 2]],
+    sd: [f64; 2],
+    proper: bool,
+) -> (f64, usize, (usize, usize), (usize, usize)) {
+    let vr = super::gap::visit_residuals(ds, res);
+    let (cell, nz, nf) = noise::cells(ds);
+    let nv = ds.visits.len();
+    let mut best = (0.0, 0, (0, 0), (0, 0));
+    for a in 0..2 {
+        // 2-D prefix sums of residual and count over the cells.
+        let mut s = vec![0.0; (nz + 1) * (nf + 1)];
+        let mut c = vec![0.0; (nz + 1) * (nf + 1)];
+        for (v, &(zi, fi)) in cell.iter().enumerate() {
+            s[(zi + 1) * (nf + 1) + fi + 1] += vr.e[v][a];
+            c[(zi + 1) * (nf + 1) + fi + 1] += 1.0;
+        }
+        for zi in 1..=nz {
+            for fi in 1..=nf {
+                let (i, up, left, diag) = (
+                    zi * (nf + 1) + fi,
+                    (zi - 1) * (nf + 1) + fi,
+                    zi * (nf + 1) + fi - 1,
+                    (zi - 1) * (nf + 1) + fi - 1,
+                );
+                s[i] += s[up] + s[left] - s[diag];
+                c[i] += c[up] + c[left] - c[diag];
+            }
+        }
+        let rect = |t: &[f64], z0: usize, z1: usize, f0: usize, f1: usize| {
+            t[(z1 + 1) * (nf + 1) + f1 + 1] - t[z0 * (nf + 1) + f1 + 1] - t[(z1 + 1) * (nf + 1) + f0]
+                + t[z0 * (nf + 1) + f0]
+        };
+        for z0 in 0..nz {
+            for z1 in z0..nz {
+                for f0 in 0..nf {
+                    for f1 in f0..nf {
+                        if proper && ((z0 == 0 && z1 == nz - 1) || (f0 == 0 && f1 == nf - 1)) {
+                            continue;
+                        }
+                        let n = rect(&c, z0, z1, f0, f1);
+                        if n < 1.0 || (proper && n > 0.25 * nv as f64) {
+                            continue;
+                        }
+                        let stat = rect(&s, z0, z1, f0, f1).abs() / (sd[a] * n.sqrt());
+                        if stat > best.0 {
+                            best = (stat, a, (z0, z1), (f0, f1));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    best
+}
+
+enum Kind {
+    Design(Solver),
+    Box,
+}
+
+/// Run the tests on the current residual.
+pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
+    let ds = st.ds;
+    let w = st.rc.w;
+    let one_fold = vec![0usize; st.y.len()];
+    let base = Solver::new(st.base, &one_fold, 1)?;
+    let mut alts: Vec<(&'static str, &'static str, Kind)> = Vec::new();
+    for (fam, name, f) in alternatives(ds, st.rc) {
+        let (cols, pen) = shapes::columns(&f, st.rc);
+        if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
+            alts.push((fam, name, Kind::Design(s)));
+        }
+    }
+    let (cols, pen) = surface(ds, st.rc);
+    if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
+        alts.push(("inputs", "zf_surface", Kind::Design(s)));
+    }
+    alts.push(("inputs", "local_box", Kind::Box));
+    if st.noise.repeat_pairs >= 3 {
+        let (cols, pen) = point_means(ds, st.rc);
+        if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
+            alts.push(("lack_of_fit", "point_means", Kind::Design(s)));
+        }
+    }
+    // The statistics of one (real or simulated) weighted residual; `scale` studentises by the
+    // visit noise this residual shows, relative to the real one's.
+    let stats_of = |y: &DVector<f64>, real_sd: Option<[f64; 2]>| -> Option<(Vec<f64>, [f64; 2])> {
+        let e0 = base.residual(y);
+        let r0 = unweight(&e0, w);
+        let sd = noise::estimate(ds, &r0).ok()?.visit;
+        let rho = match real_sd {
+            Some(r) => [(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)],
+            None => [1.0, 1.0],
+        };
+        let s0 = linear::sse_axes(&e0);
+        let out = alts
+            .iter()
+            .map(|(_, _, k)| match k {
+                Kind::Design(s) => {
+                    let s1 = linear::sse_axes(&s.residual(y));
+                    (s0[0] - s1[0]) / rho[0] + (s0[1] - s1[1]) / rho[1]
+                }
+                Kind::Box => box_scan(ds, &r0, sd, false).0,
+            })
+            .collect();
+        Some((out, sd))
+    };
+    let (obs, sd) = stats_of(st.y, None)?;
+    let null: Vec<Vec<f64>> = (0..st.boot)
+        .into_par_iter()
+        .filter_map(|b| {
+            let y = noise::simulate(ds, st.noise, w, st.seed, b);
+            stats_of(&y, Some(sd)).map(|x| x.0)
+        })
+        .collect();
+    let mut out_alts = Vec::new();
+    for (j, (fam, name, _)) in alts.iter().enumerate() {
+        let nj: Vec<f64> = null.iter().map(|v| v[j]).collect();
+        out_alts.push(Alt {
+            family: fam,
+            name,
+            stat: obs[j],
+            p: noise::boot_p(obs[j], &nj),
+        });
+    }
+    let mut family_p: Vec<(&'static str, f64)> = Vec::new();
+    for fam in ["inputs", "drift", "formation", "lack_of_fit"] {
+        let ps: Vec<f64> = out_alts
+            .iter()
+            .filter(|a| a.family == fam)
+            .map(|a| a.p)
+            .collect();
+        if !ps.is_empty() {
+            let m = ps.iter().copied().fold(1.0, f64::min);
+            family_p.push((fam, (m * ps.len() as f64).min(1.0)));
+        }
+    }
+    let k = family_p.len().max(1) as f64;
+    let p_value = family_p
+        .iter()
+        .map(|f| (f.1 * k).min(1.0))
+        .fold(1.0, f64::min);
+    let families = family_p
+        .iter()
+        .filter(|f| f.1 * k < alpha)
+        .map(|f| f.0)
+        .collect();
+    Some(Detection {
+        alts: out_alts,
+        family_p,
+        p_value,
+        significant: p_value < alpha,
+        families,
+        visit_sd: sd,
+    })
+}

@@ -1,0 +1,352 @@
+//! Shapes along an effect's axis: the flexible half of every candidate, and the generic
+//! structures the gap tests look for.
+//!
+//! A shape is a piecewise-linear function of one variable with heights at knots and flat
+//! extrapolation beyond the end knots -- the same interpolation the model's learned effect
+//! term uses, so a shape fitted here runs unchanged in `predict` and the FMU. Each effect
+//! keeps its physical axis and way of acting:
+//!
+//! | effect | axis | acts as |
+//! | --- | --- | --- |
+//! | `phase_lag` | f, optionally scaled by the field, `f (B(z)/B_mid)^-nu` (an onset that moves with the field) | mm added to the steady radii |
+//! | `cohesion_loss` | z_m | mm added to the steady radii |
+//! | `particle_drift` | session time | relative change of the observed radii |
+//! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating) |
+//!
+//! The heights are unknowns of a penalised linear model ([`super::linear`]): the roughness
+//! penalty keeps a shape smooth unless the data insist (a sudden particle loss is a steep
+//! segment between two knots).
+
+use super::data::Dataset;
+use super::linear::{self, Design};
+use nalgebra::DMatrix;
+
+/// The variable a shape runs along.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Axis {
+    /// Field frequency [Hz], scaled by `(B(z_m)/B_mid)^-nu`.
+    F {
+        /// Field exponent of the onset.
+        nu: f64,
+    },
+    /// Magnet distance z_m [mm].
+    Z,
+    /// Session time [s].
+    T,
+    /// Time since the last input change [s].
+    Since,
+}
+
+impl Axis {
+    /// Name as in the model file's learned terms.
+    pub fn key(self) -> &'static str {
+        match self {
+            Axis::F { .. } => "f_hz",
+            Axis::Z => "z_m_mm",
+            Axis::T => "t_s",
+            Axis::Since => "since_change_s",
+        }
+    }
+
+    /// Label with unit, for tables and figures.
+    pub fn label(self) -> String {
+        match self {
+            Axis::F { nu } if nu != 0.0 => format!("f (B/B_mid)^-{nu} [Hz]"),
+            Axis::F { .. } => "f [Hz]".into(),
+            Axis::Z => "z_m [mm]".into(),
+            Axis::T => "session time [s]".into(),
+            Axis::Since => "time since input change [s]".into(),
+        }
+    }
+}
+
+/// How the shape's value acts on a radius.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Added [mm].
+    Add,
+    /// Relative change [-]: r (1 + v).
+    Relative,
+    /// Fraction of the last input change's step of the steady map [-].
+    StepFraction,
+}
+
+impl Mode {
+    /// Name as in the model file's learned terms.
+    pub fn key(self) -> &'static str {
+        match self {
+            Mode::Add => "add_mm",
+            Mode::Relative => "relative",
+            Mode::StepFraction => "step_fraction",
+        }
+    }
+}
+
+/// A family of shapes: axis, mode, knots and smoothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Family {
+    /// Axis.
+    pub axis: Axis,
+    /// Mode.
+    pub mode: Mode,
+    /// Knots (strictly increasing).
+    pub knots: Vec<f64>,
+    /// Heights of the last knot held at 0 (a transient that has died out).
+    pub pin_last: bool,
+    /// Roughness weight relative to the columns' mean information.
+    pub smooth: f64,
+}
+
+/// A fitted shape.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Shape {
+    /// Its family.
+    pub family: Family,
+    /// Heights at the knots per axis (r1, r2).
+    pub values: [Vec<f64>; 2],
+    /// 1-SD uncertainty of the heights per axis.
+    pub sd: [Vec<f64>; 2],
+}
+
+impl Shape {
+    /// Value at `x` per axis (piecewise linear, flat beyond the ends).
+    pub fn at(&self, x: f64) -> [f64; 2] {
+        let h = hat(&self.family.knots, x);
+        let mut out = [0.0; 2];
+        for (a, o) in out.iter_mut().enumerate() {
+            *o = h.iter().map(|&(j, w)| w * self.values[a][j]).sum();
+        }
+        out
+    }
+}
+
+/// Hat-function weights of `x` on `knots`: at most two (index, weight) pairs.
+pub fn hat(knots: &[f64], x: f64) -> Vec<(usize, f64)> {
+    let k = knots.len();
+    if k == 0 {
+        return Vec::new();
+    }
+    if x <= knots[0] {
+        return vec![(0, 1.0)];
+    }
+    if x >= knots[k - 1] {
+        return vec![(k - 1, 1.0)];
+    }
+    let j = knots.partition_point(|&v| v <= x).saturating_sub(1).min(k - 2);
+    let u = (x - knots[j]) / (knots[j + 1] - knots[j]);
+    vec![(j, 1.0 - u), (j + 1, u)]
+}
+
+/// Up to `k` knots spread over the distinct values of `xs` (their quantiles, ends included).
+pub fn knots_of(xs: &[f64], k: usize) -> Vec<f64> {
+    let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
+    v.sort_by(|a, b| a.total_cmp(b));
+    v.dedup_by(|a, b| (*a - *b).abs() < 1e-9 * (1.0 + b.abs()));
+    if v.len() <= k {
+        return v;
+    }
+    let n = v.len();
+    let mut out: Vec<f64> = (0..k).map(|i| v[i * (n - 1) / (k - 1)]).collect();
+    out.dedup();
+    out
+}
+
+/// Everything a shape needs to know of each row.
+#[derive(Debug, Clone)]
+pub struct RowCtx {
+    /// Row weights per axis (1 / row SD).
+    pub w: [f64; 2],
+    /// z_m [mm] per row.
+    pub z: Vec<f64>,
+    /// f [Hz] per row.
+    pub f: Vec<f64>,
+    /// ln(B(z)/B_mid) per row.
+    pub ln_b: Vec<f64>,
+    /// Session time per row [s].
+    pub t: Vec<f64>,
+    /// Time since the visit's input change per row [s].
+    pub since: Vec<f64>,
+    /// The step of the current model's steady map at the row's visit's input change
+    /// (0 for a session's first visit) [mm].
+    pub delta: Vec<[f64; 2]>,
+    /// The current model's prediction per row [mm].
+    pub pred: Vec<[f64; 2]>,
+}
+
+impl RowCtx {
+    /// From the data set, the current model's predictions and steady map at the points, the
+    /// field at each row (ln B/B_mid) and the row weights.
+    pub fn new(
+        ds: &Dataset,
+        pred: &[[f64; 2]],
+        map: &[[f64; 2]],
+        ln_b: Vec<f64>,
+        w: [f64; 2],
+    ) -> RowCtx {
+        let delta = ds
+            .rows
+            .iter()
+            .map(|r| match ds.visits[r.visit].prev {
+                Some(pv) => {
+                    let (a, b) = (map[r.point], map[ds.visits[pv].point]);
+                    [a[0] - b[0], a[1] - b[1]]
+                }
+                None => [0.0; 2],
+            })
+            .collect();
+        RowCtx {
+            w,
+            z: ds.rows.iter().map(|r| r.z).collect(),
+            f: ds.rows.iter().map(|r| r.f).collect(),
+            ln_b,
+            t: ds.rows.iter().map(|r| r.t).collect(),
+            since: ds.rows.iter().map(|r| r.since).collect(),
+            delta,
+            pred: pred.to_vec(),
+        }
+    }
+
+    /// Rows.
+    pub fn len(&self) -> usize {
+        self.z.len()
+    }
+
+    /// True without rows.
+    pub fn is_empty(&self) -> bool {
+        self.z.is_empty()
+    }
+
+    /// The axis variable at row i.
+    pub fn x(&self, axis: Axis, i: usize) -> f64 {
+        match axis {
+            Axis::F { nu } => self.f[i] * (-nu * self.ln_b[i]).exp(),
+            Axis::Z => self.z[i],
+            Axis::T => self.t[i],
+            Axis::Since => self.since[i],
+        }
+    }
+
+    /// The axis variable at every row.
+    pub fn xs(&self, axis: Axis) -> Vec<f64> {
+        (0..self.len()).map(|i| self.x(axis, i)).collect()
+    }
+
+    /// Multiplier of a shape's value at row i on axis a (by the mode).
+    fn gain(&self, mode: Mode, i: usize, a: usize) -> f64 {
+        match mode {
+            Mode::Add => 1.0,
+            Mode::Relative => self.pred[i][a],
+            Mode::StepFraction => self.delta[i][a],
+        }
+    }
+}
+
+/// Heights that are unknowns (all but a pinned last knot).
+fn free_knots(f: &Family) -> usize {
+    f.knots.len() - usize::from(f.pin_last)
+}
+
+/// The weighted columns of a family (stacked rows x 2 free-knot blocks, r1's then r2's) and
+/// its roughness penalty, scaled to the columns' information.
+pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
+    let k = free_knots(f);
+    let n = rc.len();
+    let mut a = DMatrix::zeros(2 * n, 2 * k);
+    for i in 0..n {
+        for (j, wt) in hat(&f.knots, rc.x(f.axis, i)) {
+            if j >= k {
+                continue;
+            }
+            for ax in 0..2 {
+                a[(2 * i + ax, ax * k + j)] = wt * rc.gain(f.mode, i, ax) * rc.w[ax];
+            }
+        }
+    }
+    let info = (0..2 * k)
+        .map(|c| a.column(c).norm_squared())
+        .sum::<f64>()
+        / (2 * k).max(1) as f64;
+    let info = info.max(1e-12);
+    let pen = linear::roughness(k, 2, f.smooth * info, 1e-3 * info);
+    (a, pen)
+}
+
+/// The shape whose heights are `coef` (the family's free knots, r1's then r2's) with their
+/// SDs, as a model term would carry it.
+pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
+    let k = free_knots(f);
+    let take = |v: &[f64], a: usize| -> Vec<f64> {
+        let mut out: Vec<f64> = v[a * k..(a + 1) * k].to_vec();
+        if f.pin_last {
+            out.push(0.0);
+        }
+        out
+    };
+    Shape {
+        family: f.clone(),
+        values: [take(coef, 0), take(coef, 1)],
+        sd: [take(sd, 0), take(sd, 1)],
+    }
+}
+
+/// Fit a family on top of `base` to the weighted residual `y` on all rows: the shape (with
+/// SDs from the penalised normal equations) and the weighted fitted values of the whole
+/// design. None when the system is singular.
+pub fn fit(
+    base: &Design,
+    f: &Family,
+    rc: &RowCtx,
+    y: &nalgebra::DVector<f64>,
+) -> Option<(Shape, nalgebra::DVector<f64>)> {
+    let (cols, pen) = columns(f, rc);
+    let d = base.extend(&cols, &pen);
+    let g = d.a.tr_mul(&d.a) + &d.pen;
+    let c = nalgebra::Cholesky::new(g)?;
+    let beta = c.solve(&d.a.tr_mul(y));
+    let inv = c.inverse();
+    let p0 = base.cols();
+    let q = cols.ncols();
+    let coef: Vec<f64> = (0..q).map(|j| beta[p0 + j]).collect();
+    let sd: Vec<f64> = (0..q).map(|j| inv[(p0 + j, p0 + j)].max(0.0).sqrt()).collect();
+    let fitted = &d.a * beta;
+    Some((shape_of(f, &coef, &sd), fitted))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hats_interpolate_and_extrapolate_flat() {
+        let k = [1.0, 2.0, 4.0];
+        assert_eq!(hat(&k, 0.0), vec![(0, 1.0)]);
+        assert_eq!(hat(&k, 5.0), vec![(2, 1.0)]);
+        let h = hat(&k, 3.0);
+        assert_eq!(h.len(), 2);
+        assert_eq!((h[0].0, h[1].0), (1, 2));
+        assert!((h[0].1 - 0.5).abs() < 1e-12 && (h[1].1 - 0.5).abs() < 1e-12);
+        let s = Shape {
+            family: Family {
+                axis: Axis::Z,
+                mode: Mode::Add,
+                knots: k.to_vec(),
+                pin_last: false,
+                smooth: 0.0,
+            },
+            values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],
+            sd: [vec![0.0; 3], vec![0.0; 3]],
+        };
+        assert!((s.at(3.0)[0] - 2.0).abs() < 1e-12);
+        assert!((s.at(9.0)[0] - 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn knots_span_the_values() {
+        let xs: Vec<f64> = (0..100).map(|i| i as f64 * 0.5).collect();
+        let k = knots_of(&xs, 6);
+        assert_eq!(k.len(), 6);
+        assert_eq!(k[0], 0.0);
+        assert_eq!(*k.last().unwrap(), 49.5);
+        assert_eq!(knots_of(&[3.0, 1.0, 3.0], 6), vec![1.0, 3.0]);
+    }
+}
