@@ -40,6 +40,9 @@ use nalgebra::{DMatrix, DVector};
 use rand::{seq::SliceRandom, SeedableRng};
 use rayon::prelude::*;
 
+/// Ridge on the baseline's free-parameter directions (unit-norm columns).
+const JAC_RIDGE: f64 = 1e-2;
+
 /// Settings.
 #[derive(Debug, Clone, Copy)]
 pub struct Settings {
@@ -218,10 +221,13 @@ impl<'a> Linear<'a> {
                 a.column_mut(c).scale_mut(1.0 / nrm);
             }
         }
+        // A small ridge on the unit-norm columns: a fold's refit must not run along the nearly
+        // unidentified combinations of the steady parameters (exponents against gains), where
+        // the linearisation means nothing; well-determined directions are barely shrunk.
         let p = free.len();
         let jac = Design {
             a,
-            pen: DMatrix::identity(p, p) * 1e-8,
+            pen: DMatrix::identity(p, p) * JAC_RIDGE,
         };
         let ln_b = ds
             .rows
@@ -282,7 +288,7 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
     let ds = lin.ds;
     let (zs, fs) = ds.levels();
     let rc = &lin.rc;
-    let smooths = [0.1, 1.0];
+    let smooths = [0.01, 0.1, 1.0];
     let mut out: Vec<(&'static str, Vec<Variant>)> = Vec::new();
     let mut v = Vec::new();
     for nu in [0.0, 1.0] {
@@ -681,7 +687,18 @@ pub fn attribute(
         let mut order: Vec<usize> = (0..scored.len())
             .filter(|&i| scored[i].p < st.alpha && scored[i].gain > 0.0)
             .collect();
-        order.sort_by(|&a, &b| scored[b].gain.total_cmp(&scored[a].gain));
+        // The candidate furthest beyond its own null (its gain in SDs of the null above the
+        // null's mean): a flexible candidate's null is wider, and the local anomaly's includes
+        // its search over boxes.
+        let z = |s: &Scored| {
+            let m = crate::diagnose::stats::mean(&s.null);
+            let sd = (s.null.iter().map(|v| (v - m).powi(2)).sum::<f64>()
+                / (s.null.len().max(2) - 1) as f64)
+                .sqrt()
+                .max(1e-9);
+            (s.gain - m) / sd
+        };
+        order.sort_by(|&a, &b| z(&scored[b]).total_cmp(&z(&scored[a])));
         let best = order.first().copied();
         let winner = best.map(|b| scored[b].name);
         for (i, s) in scored.iter().enumerate() {

@@ -147,6 +147,10 @@ pub struct Diagnosis {
     pub pe_aug: PureError,
     /// Family tests.
     pub tests: gap::GapTests,
+    /// The bootstrap-calibrated gap tests on the baseline.
+    pub detection: detect::Detection,
+    /// The noise levels the tests and the simulations use.
+    pub noise: noise::Noise,
     /// Regions.
     pub regions: Vec<gap::Region>,
     /// Baseline steady map at the points.
@@ -437,6 +441,8 @@ pub fn diagnose(
         floor,
         pe_aug,
         tests,
+        detection: det0,
+        noise,
         regions,
         base_map,
         attr,

@@ -149,6 +149,23 @@ pub fn json(d: &Diagnosis) -> Value {
                 "formation_p_value": gt.trans_p,
                 "formation_visits": gt.trans_visits,
                 "visit_sd_mm": gt.visit_sd,
+                "bootstrap": {
+                    "replicates": d.cfg.boot,
+                    "alternatives": d.detection.alts.iter().map(|a| json!({
+                        "family": a.family, "alternative": a.name, "statistic": a.stat, "p_value": a.p,
+                    })).collect::<Vec<_>>(),
+                    "family_p_value": d.detection.family_p.iter().map(|(f, p)| (f.to_string(), json!(p))).collect::<serde_json::Map<_, _>>(),
+                    "after_each_effect": d.attr.rounds.iter().map(|r| json!({
+                        "p_value": r.p_value, "significant": r.significant, "families": r.families,
+                    })).collect::<Vec<_>>(),
+                },
+            },
+            "noise": {
+                "within_visit_sd_mm": axes(d.noise.within),
+                "visit_sd_mm": axes(d.noise.visit),
+                "between_visit_sd_mm": axes(d.noise.between),
+                "neighbour_pairs": d.noise.pairs,
+                "repeat_pairs": d.noise.repeat_pairs,
             },
             "regions": d.regions.iter().map(region_json).collect::<Vec<_>>(),
         },
