@@ -40,6 +40,11 @@ use nalgebra::{DMatrix, DVector};
 use rand::{seq::SliceRandom, SeedableRng};
 use rayon::prelude::*;
 
+/// Smallest withheld gain that names an effect, beyond its null: a log-likelihood ratio of
+/// e^2 (about 7), "positive evidence" on Kass and Raftery's scale. A candidate with a narrow
+/// null (one column) can lie beyond it with a gain no user would notice.
+pub const MIN_GAIN: f64 = 2.0;
+
 /// Ridge on the baseline's free-parameter directions (unit-norm columns).
 const JAC_RIDGE: f64 = 1e-2;
 
@@ -134,6 +139,8 @@ pub struct Attribution {
     pub rounds: Vec<detect::Detection>,
     /// The local anomaly beat every effect in the last round: the gap left is unexplained.
     pub anomaly_won: bool,
+    /// The local anomaly's score in the last round: (gain, null quantile, p-value).
+    pub anomaly: Option<(f64, f64, f64)>,
 }
 
 /// Fold of each visit: shuffled, then dealt round-robin.
@@ -234,7 +241,27 @@ impl<'a> Linear<'a> {
             .iter()
             .map(|r| (candidates::field_b(&base.model, r.z) / ctx.b_mid).max(1e-300).ln())
             .collect();
-        let rc = RowCtx::new(ds, &p0, &map0, ln_b, w);
+        // Sensitivity of the steady map to the drive frequency (central differences).
+        let dmap_df: Vec<[f64; 2]> = {
+            let m = base.synced();
+            ds.points
+                .iter()
+                .map(|&(z, f)| {
+                    let h = 0.02 * f.abs().max(0.5);
+                    let (a, b) = (candidates::map_at(&m, z, f + h), candidates::map_at(&m, z, f - h));
+                    let d = |i: usize| {
+                        let v = (a[i] - b[i]) / (2.0 * h);
+                        if v.is_finite() {
+                            v
+                        } else {
+                            0.0
+                        }
+                    };
+                    [d(0), d(1)]
+                })
+                .collect()
+        };
+        let rc = RowCtx::new(ds, &p0, &map0, &dmap_df, ln_b, w);
         let fold_of_stacked = (0..2 * n)
             .map(|s| fold_of_visit[ds.rows[s / 2].visit])
             .collect();
@@ -290,35 +317,39 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
     let rc = &lin.rc;
     let smooths = [0.01, 0.1, 1.0];
     let mut out: Vec<(&'static str, Vec<Variant>)> = Vec::new();
+    // Effects on the steady map act in mm or in proportion to the radius (a change of Phi
+    // (6) or of the stiffness scales the radii): both modes are variants. A step-out is above
+    // all a deficit of the swarm's rotation rate, acting through the map's own sensitivity to
+    // the drive (one deficit for both radii).
     let mut v = Vec::new();
-    for nu in [0.0, 1.0] {
+    for nu in [0.0, 0.5, 1.0, 2.0] {
         let xs = rc.xs(Axis::F { nu });
+        for mode in [Mode::Rate, Mode::Add, Mode::Relative] {
+            for s in smooths {
+                v.push(Variant::Shape(Family {
+                    axis: Axis::F { nu },
+                    mode,
+                    knots: shapes::knots_of(&xs, fs.len().clamp(2, 10)),
+                    pin_last: false,
+                    smooth: s,
+                }));
+            }
+        }
+    }
+    out.push(("phase_lag", v));
+    let mut v = Vec::new();
+    for mode in [Mode::Add, Mode::Relative] {
         for s in smooths {
             v.push(Variant::Shape(Family {
-                axis: Axis::F { nu },
-                mode: Mode::Add,
-                knots: shapes::knots_of(&xs, fs.len().clamp(2, 10)),
+                axis: Axis::Z,
+                mode,
+                knots: shapes::knots_of(&zs, 8),
                 pin_last: false,
                 smooth: s,
             }));
         }
     }
-    out.push(("phase_lag", v));
-    out.push((
-        "cohesion_loss",
-        smooths
-            .iter()
-            .map(|&s| {
-                Variant::Shape(Family {
-                    axis: Axis::Z,
-                    mode: Mode::Add,
-                    knots: shapes::knots_of(&zs, 8),
-                    pin_last: false,
-                    smooth: s,
-                })
-            })
-            .collect(),
-    ));
+    out.push(("cohesion_loss", v));
     if let Some(f) = detect::since_family(rc, 0.1) {
         out.push((
             "formation_lag",
@@ -386,7 +417,7 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
 fn columns_of(v: &Variant, rc: &RowCtx) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
     match v {
         Variant::Shape(f) => Some(shapes::columns(f, rc)),
-        Variant::Column(_, c) => Some((c.clone(), DMatrix::identity(1, 1) * 1e-8)),
+        Variant::Column(_, c) => Some((c.clone(), DMatrix::identity(c.ncols(), c.ncols()) * 1e-8)),
         Variant::Anomaly => None,
     }
 }
@@ -656,15 +687,21 @@ pub fn attribute(
         fold_of_visit: fold_of_visit.to_vec(),
         rounds: Vec::new(),
         anomaly_won: false,
+        anomaly: None,
     };
     if regions.is_empty() {
         return out;
     }
     let cands = variants(lin);
     let mut cur = lin.jac.clone();
-    // Named effects: (name, the variant that entered the design).
-    let mut named: Vec<(String, Variant)> = Vec::new();
-    for round in 1..=st.max_effects {
+    // Named effects: (name, the variants that entered the design).
+    let mut named: Vec<(String, Vec<Variant>)> = Vec::new();
+    let mut rounds_run = 0;
+    // Rounds that only refine a named effect do not count toward `max_effects`, but at most
+    // two of them run.
+    while out.accepted.len() < st.max_effects && rounds_run < st.max_effects + 2 {
+        rounds_run += 1;
+        let round = rounds_run;
         if round > 1 {
             let det = detect::detect(&setting(lin, &cur, &st), st.alpha);
             let go = det.as_ref().map(|d| d.significant).unwrap_or(false);
@@ -675,42 +712,72 @@ pub fn attribute(
                 break;
             }
         }
-        let todo: Vec<(&'static str, Vec<Variant>)> = cands
-            .iter()
-            .filter(|(n, _)| !named.iter().any(|(a, _)| a == n))
-            .cloned()
-            .collect();
+        // Effects not named yet, and the named ones again: what a named effect's shape leaves
+        // of its own structure is more of the same effect (a refinement), not a new one.
+        let todo: Vec<(&'static str, Vec<Variant>)> = cands.clone();
         let Some(scored) = score_round(lin, &cur, &todo, &st, round) else {
             break;
         };
         progress.inc(1);
+        let is_named = |n: &str| named.iter().any(|(a, _)| a == n);
         let mut order: Vec<usize> = (0..scored.len())
-            .filter(|&i| scored[i].p < st.alpha && scored[i].gain > 0.0)
+            .filter(|&i| scored[i].p < st.alpha && scored[i].gain >= MIN_GAIN)
             .collect();
-        // The candidate furthest beyond its own null (its gain in SDs of the null above the
-        // null's mean): a flexible candidate's null is wider, and the local anomaly's includes
-        // its search over boxes.
-        let z = |s: &Scored| {
-            let m = crate::diagnose::stats::mean(&s.null);
-            let sd = (s.null.iter().map(|v| (v - m).powi(2)).sum::<f64>()
-                / (s.null.len().max(2) - 1) as f64)
-                .sqrt()
-                .max(1e-9);
-            (s.gain - m) / sd
-        };
-        order.sort_by(|&a, &b| z(&scored[b]).total_cmp(&z(&scored[a])));
-        let best = order.first().copied();
+        // The candidate furthest beyond its own null: its gain less the null's (1 - alpha)
+        // quantile. A flexible candidate's null is wider, and the local anomaly's includes its
+        // search over boxes: the excess is a calibrated penalty for flexibility.
+        let excess = |s: &Scored| s.gain - quantile(&s.null, 1.0 - st.alpha);
+        order.sort_by(|&a, &b| excess(&scored[b]).total_cmp(&excess(&scored[a])));
+        let mut best = order.first().copied();
+        // A local anomaly ahead of every effect: an effect that passed still names the gap if
+        // it keeps a gain beyond its null on top of the anomaly's box (the effect is there,
+        // the box took its strongest part); otherwise the gap is a local one no effect
+        // describes.
+        if let Some(b) = best.filter(|&b| scored[b].name == "local_anomaly") {
+            let boxed = scored[b]
+                .best
+                .as_ref()
+                .and_then(|v| columns_of(v, &lin.rc))
+                .map(|(c, p)| cur.extend(&c, &p));
+            let rescued = order.iter().copied().skip(1).find(|&e| {
+                let (Some(d), Some((c, p))) = (
+                    boxed.as_ref(),
+                    scored[e].best.as_ref().and_then(|v| columns_of(v, &lin.rc)),
+                ) else {
+                    return false;
+                };
+                let (Some(s0), Some(s1)) = (
+                    Solver::new(d, &lin.fold_of_stacked, lin.k),
+                    Solver::new(&d.extend(&c, &p), &lin.fold_of_stacked, lin.k),
+                ) else {
+                    return false;
+                };
+                let g = gain(&s0, &s1, &lin.y, [1.0, 1.0]);
+                g >= MIN_GAIN.max(quantile(&scored[e].null, 1.0 - st.alpha))
+            });
+            if rescued.is_some() {
+                best = rescued;
+            }
+        }
         let winner = best.map(|b| scored[b].name);
+        let new_name = winner.filter(|w| *w != "local_anomaly" && !is_named(w));
         for (i, s) in scored.iter().enumerate() {
             if s.name == "local_anomaly" {
+                out.anomaly = Some((s.gain, quantile(&s.null, 1.0 - st.alpha), s.p));
+            }
+            if s.name == "local_anomaly" || is_named(s.name) {
                 continue;
             }
-            let accepted = Some(i) == best && winner != Some("local_anomaly");
+            let accepted = Some(i) == best && new_name.is_some();
             let close: Vec<String> = match best {
                 Some(b) if i == b => order
                     .iter()
                     .skip(1)
-                    .filter(|&&j| scored[j].gain >= 0.8 * scored[b].gain)
+                    .filter(|&&j| {
+                        scored[j].name != "local_anomaly"
+                            && !is_named(scored[j].name)
+                            && excess(&scored[j]) >= 0.8 * excess(&scored[b])
+                    })
                     .map(|&j| scored[j].name.to_string())
                     .collect(),
                 _ => Vec::new(),
@@ -726,7 +793,7 @@ pub fn attribute(
                 implausible: Vec::new(),
                 signature: (0.0, None),
                 closes_gap: false,
-                passed: s.p < st.alpha && s.gain > 0.0,
+                passed: s.p < st.alpha && s.gain >= MIN_GAIN,
                 accepted,
                 ambiguous_with: close,
                 form: Form::Parametric,
@@ -745,6 +812,15 @@ pub fn attribute(
             out.anomaly_won = true;
             break;
         }
+        let v = scored[b].best.clone().expect("a variant");
+        if let Some((c, p)) = columns_of(&v, &lin.rc) {
+            cur = cur.extend(&c, &p);
+        }
+        if let Some(n) = named.iter_mut().find(|(a, _)| a == scored[b].name) {
+            // A refinement: the named effect's shape gains a term.
+            n.1.push(v);
+            continue;
+        }
         for a in out
             .evals
             .iter()
@@ -754,11 +830,7 @@ pub fn attribute(
         {
             out.ambiguous.push((scored[b].name.to_string(), a));
         }
-        let v = scored[b].best.clone().expect("a variant");
-        if let Some((c, p)) = columns_of(&v, &lin.rc) {
-            cur = cur.extend(&c, &p);
-        }
-        named.push((scored[b].name.to_string(), v));
+        named.push((scored[b].name.to_string(), vec![v]));
         out.accepted.push(scored[b].name.to_string());
     }
     if named.is_empty() {
@@ -803,7 +875,7 @@ pub fn attribute(
 /// its design.
 fn choose_forms(
     lin: &Linear,
-    named: &[(String, Variant)],
+    named: &[(String, Vec<Variant>)],
     out: &mut Attribution,
     st: Settings,
     progress: &indicatif::ProgressBar,
@@ -813,9 +885,16 @@ fn choose_forms(
     let mut learned: Vec<(String, Family)> = Vec::new();
     let mut parametric: Vec<String> = Vec::new();
     let one = vec![0usize; lin.y.len()];
-    for (name, v) in named {
+    for (name, vs) in named {
         let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
-        let shape_design = columns_of(v, &lin.rc).map(|(c, p)| design.extend(&c, &p));
+        let mut shape_design = Some(design.clone());
+        for v in vs {
+            shape_design = match (shape_design, columns_of(v, &lin.rc)) {
+                (Some(d), Some((c, p))) => Some(d.extend(&c, &p)),
+                _ => None,
+            };
+        }
+        let is_shape = vs.iter().all(|v| matches!(v, Variant::Shape(_)));
         let g_learned = match (&before, &shape_design) {
             (Some(b), Some(d)) => Solver::new(d, &lin.fold_of_stacked, lin.k)
                 .map(|s| gain(b, &s, &lin.y, [1.0, 1.0]))
@@ -868,13 +947,14 @@ fn choose_forms(
                 .unwrap_or(f64::NEG_INFINITY),
             _ => f64::NEG_INFINITY,
         };
-        let use_learned = matches!(v, Variant::Shape(_))
-            && g_learned.is_finite()
-            && g_param < 0.9 * g_learned;
+        let use_learned = is_shape && g_learned.is_finite() && g_param < 0.9 * g_learned;
         let e = out.evals.iter_mut().find(|e| &e.name == name);
         if use_learned {
-            let Variant::Shape(f) = v else { unreachable!() };
-            learned.push((name.clone(), f.clone()));
+            for v in vs {
+                if let Variant::Shape(f) = v {
+                    learned.push((name.clone(), f.clone()));
+                }
+            }
             design = shape_design.expect("shape design");
             if let Some(e) = e {
                 e.form_gains = Some((g_param, g_learned));

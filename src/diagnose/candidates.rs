@@ -418,6 +418,11 @@ fn map_point(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
     [ok(sp.r1), ok(sp.r2)]
 }
 
+/// The physical steady map of a model at (z_m [mm], f [Hz]) [mm] (large where it breaks).
+pub fn map_at(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
+    map_point(m, z_mm, f_hz)
+}
+
 /// Physical steady map of the augmented model at every point of `ds` [mm].
 pub fn point_map(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
     map_of(&aug.synced(), ds)
@@ -488,16 +493,35 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
         }
     };
     let steady_axes = |a: shapes::Axis| matches!(a, shapes::Axis::F { .. } | shapes::Axis::Z);
-    // The steady map with the learned steady shapes, per point.
+    // The learned steady shapes' change of the steady map, per point (a rate deficit
+    // re-evaluates the map at the slower rotation).
+    let mut corr = vec![[0.0; 2]; map.len()];
     let mut map2 = map.to_vec();
     for (_, sh) in aug.learned.iter().filter(|(_, s)| steady_axes(s.family.axis)) {
         for (p, v) in map2.iter_mut().enumerate() {
             let c = sh.at(x_of(sh.family.axis, p, 0.0, 0.0));
-            for a in 0..2 {
-                match sh.family.mode {
-                    Mode::Relative => v[a] *= 1.0 + c[a],
-                    _ => v[a] += c[a],
+            let before = *v;
+            match sh.family.mode {
+                Mode::Relative => {
+                    for a in 0..2 {
+                        v[a] *= 1.0 + c[a];
+                    }
                 }
+                Mode::Rate => {
+                    let (z, f) = ds.points[p];
+                    let shifted = map_point(m, z, f - c[0]);
+                    for a in 0..2 {
+                        v[a] += shifted[a] - map[p][a];
+                    }
+                }
+                _ => {
+                    for a in 0..2 {
+                        v[a] += c[a];
+                    }
+                }
+            }
+            for a in 0..2 {
+                corr[p][a] += v[a] - before[a];
             }
         }
     }
@@ -509,13 +533,16 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
             }
             None => [0.0; 2],
         };
-        for (_, sh) in &aug.learned {
+        for a in 0..2 {
+            out[i][a] += corr[r.point][a];
+        }
+        for (_, sh) in aug.learned.iter().filter(|(_, s)| !steady_axes(s.family.axis)) {
             let c = sh.at(x_of(sh.family.axis, r.point, r.t, r.since));
             for a in 0..2 {
                 match sh.family.mode {
-                    Mode::Add => out[i][a] += c[a],
                     Mode::Relative => out[i][a] *= 1.0 + c[a],
                     Mode::StepFraction => out[i][a] += c[a] * delta[a],
+                    Mode::Add | Mode::Rate => out[i][a] += c[a],
                 }
             }
         }

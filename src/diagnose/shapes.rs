@@ -69,6 +69,9 @@ pub enum Mode {
     Relative,
     /// Fraction of the last input change's step of the steady map [-].
     StepFraction,
+    /// A deficit of the swarm's rotation rate [Hz]: the steady map at the drive frequency
+    /// less the value (one value for both radii: a step-out slows the whole swarm).
+    Rate,
 }
 
 impl Mode {
@@ -78,6 +81,7 @@ impl Mode {
             Mode::Add => "add_mm",
             Mode::Relative => "relative",
             Mode::StepFraction => "step_fraction",
+            Mode::Rate => "rate_hz",
         }
     }
 }
@@ -171,6 +175,8 @@ pub struct RowCtx {
     pub delta: Vec<[f64; 2]>,
     /// The current model's prediction per row [mm].
     pub pred: Vec<[f64; 2]>,
+    /// Sensitivity of the steady map to the drive frequency at each row's point [mm/Hz].
+    pub dmap_df: Vec<[f64; 2]>,
 }
 
 impl RowCtx {
@@ -180,6 +186,7 @@ impl RowCtx {
         ds: &Dataset,
         pred: &[[f64; 2]],
         map: &[[f64; 2]],
+        dmap_df: &[[f64; 2]],
         ln_b: Vec<f64>,
         w: [f64; 2],
     ) -> RowCtx {
@@ -203,6 +210,7 @@ impl RowCtx {
             since: ds.rows.iter().map(|r| r.since).collect(),
             delta,
             pred: pred.to_vec(),
+            dmap_df: ds.rows.iter().map(|r| dmap_df[r.point]).collect(),
         }
     }
 
@@ -237,6 +245,7 @@ impl RowCtx {
             Mode::Add => 1.0,
             Mode::Relative => self.pred[i][a],
             Mode::StepFraction => self.delta[i][a],
+            Mode::Rate => -self.dmap_df[i][a],
         }
     }
 }
@@ -246,28 +255,35 @@ fn free_knots(f: &Family) -> usize {
     f.knots.len() - usize::from(f.pin_last)
 }
 
+/// One set of heights for both radii (a rate deficit acts on the whole swarm).
+fn shared(f: &Family) -> bool {
+    f.mode == Mode::Rate
+}
+
 /// The weighted columns of a family (stacked rows x 2 free-knot blocks, r1's then r2's) and
 /// its roughness penalty, scaled to the columns' information.
 pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     let k = free_knots(f);
     let n = rc.len();
-    let mut a = DMatrix::zeros(2 * n, 2 * k);
+    let blocks = if shared(f) { 1 } else { 2 };
+    let mut a = DMatrix::zeros(2 * n, blocks * k);
     for i in 0..n {
         for (j, wt) in hat(&f.knots, rc.x(f.axis, i)) {
             if j >= k {
                 continue;
             }
             for ax in 0..2 {
-                a[(2 * i + ax, ax * k + j)] = wt * rc.gain(f.mode, i, ax) * rc.w[ax];
+                let col = if blocks == 1 { j } else { ax * k + j };
+                a[(2 * i + ax, col)] = wt * rc.gain(f.mode, i, ax) * rc.w[ax];
             }
         }
     }
-    let info = (0..2 * k)
+    let info = (0..blocks * k)
         .map(|c| a.column(c).norm_squared())
         .sum::<f64>()
-        / (2 * k).max(1) as f64;
+        / (blocks * k).max(1) as f64;
     let info = info.max(1e-12);
-    let pen = linear::roughness(k, 2, f.smooth * info, 1e-3 * info);
+    let pen = linear::roughness(k, blocks, f.smooth * info, 1e-3 * info);
     (a, pen)
 }
 
@@ -275,8 +291,10 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
 /// SDs, as a model term would carry it.
 pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
     let k = free_knots(f);
+    let one = shared(f);
     let take = |v: &[f64], a: usize| -> Vec<f64> {
-        let mut out: Vec<f64> = v[a * k..(a + 1) * k].to_vec();
+        let b = if one { 0 } else { a };
+        let mut out: Vec<f64> = v[b * k..(b + 1) * k].to_vec();
         if f.pin_last {
             out.push(0.0);
         }

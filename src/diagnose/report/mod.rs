@@ -112,6 +112,19 @@ pub fn json(d: &Diagnosis) -> Value {
                 "closes_gap": e.closes_gap,
                 "passed": e.passed,
                 "ambiguous_with": e.ambiguous_with,
+                "variant": e.variant,
+                "null_quantile": e.penalty,
+                "form": match &e.form {
+                    super::attribute::Form::Parametric => json!("library"),
+                    super::attribute::Form::Learned(sh) => json!({
+                        "learned_axis": sh.family.axis.key(),
+                        "mode": sh.family.mode.key(),
+                        "knots": sh.family.knots,
+                        "r1": sh.values[0], "r2": sh.values[1],
+                        "sd_r1": sh.sd[0], "sd_r2": sh.sd[1],
+                    }),
+                },
+                "form_gains": e.form_gains.map(|(p, l)| json!({"library": p, "learned": l})),
             })
         })
         .collect();
@@ -171,6 +184,7 @@ pub fn json(d: &Diagnosis) -> Value {
         },
         "effects": effects,
         "accepted": d.attr.accepted,
+        "local_anomaly": d.attr.anomaly.map(|(g, q, p)| json!({"heldout_loglik_gain": g, "null_quantile": q, "p_value": p, "beat_every_effect": d.attr.anomaly_won})),
         "ambiguous": d.attr.ambiguous.iter().map(|(a, b)| json!([a, b])).collect::<Vec<_>>(),
         "unexplained": unexplained,
         "baseline": {
