@@ -324,13 +324,19 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
     let mut v = Vec::new();
     for nu in [0.0, 0.5, 1.0, 2.0] {
         let xs = rc.xs(Axis::F { nu });
-        for mode in [Mode::Rate, Mode::Add, Mode::Relative] {
+        for (mode, amp) in [
+            (Mode::Rate, 0.0),
+            (Mode::Add, 0.0),
+            (Mode::Relative, 0.0),
+            (Mode::Add, 1.0),
+        ] {
             for s in smooths {
                 v.push(Variant::Shape(Family {
                     axis: Axis::F { nu },
                     mode,
                     knots: shapes::knots_of(&xs, fs.len().clamp(2, 10)),
                     pin_last: false,
+                    amp,
                     smooth: s,
                 }));
             }
@@ -345,6 +351,7 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
                 mode,
                 knots: shapes::knots_of(&zs, 8),
                 pin_last: false,
+                amp: 0.0,
                 smooth: s,
             }));
         }
@@ -369,6 +376,7 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
                     mode: Mode::Relative,
                     knots: shapes::knots_of(&rc.t, 8),
                     pin_last: false,
+                    amp: 0.0,
                     smooth: s,
                 })
             })
@@ -949,6 +957,20 @@ fn choose_forms(
         };
         let use_learned = is_shape && g_learned.is_finite() && g_param < 0.9 * g_learned;
         let e = out.evals.iter_mut().find(|e| &e.name == name);
+        // Given the effects named before it (in whichever form they took), an effect that no
+        // longer gains what names an effect is dropped: it was explaining their leftovers.
+        if g_param.max(g_learned) < MIN_GAIN {
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned));
+                e.accepted = false;
+                e.implausible.push(format!(
+                    "dropped: with the effects named before it, its withheld gain is {:.2} < {MIN_GAIN}",
+                    g_param.max(g_learned)
+                ));
+            }
+            out.accepted.retain(|a| a != name);
+            continue;
+        }
         if use_learned {
             for v in vs {
                 if let Variant::Shape(f) = v {

@@ -499,7 +499,8 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
     let mut map2 = map.to_vec();
     for (_, sh) in aug.learned.iter().filter(|(_, s)| steady_axes(s.family.axis)) {
         for (p, v) in map2.iter_mut().enumerate() {
-            let c = sh.at(x_of(sh.family.axis, p, 0.0, 0.0));
+            let scale = (sh.family.amp * ln_b[p]).exp();
+            let c = sh.at(x_of(sh.family.axis, p, 0.0, 0.0)).map(|c| c * scale);
             let before = *v;
             match sh.family.mode {
                 Mode::Relative => {
@@ -537,7 +538,8 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
             out[i][a] += corr[r.point][a];
         }
         for (_, sh) in aug.learned.iter().filter(|(_, s)| !steady_axes(s.family.axis)) {
-            let c = sh.at(x_of(sh.family.axis, r.point, r.t, r.since));
+            let scale = (sh.family.amp * ln_b[r.point]).exp();
+            let c = sh.at(x_of(sh.family.axis, r.point, r.t, r.since)).map(|c| c * scale);
             for a in 0..2 {
                 match sh.family.mode {
                     Mode::Relative => out[i][a] *= 1.0 + c[a],

@@ -90,6 +90,7 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
                 mode: Mode::Add,
                 knots: shapes::knots_of(&fs, 10),
                 pin_last: false,
+                amp: 0.0,
                 smooth: 0.3,
             },
         ),
@@ -101,6 +102,7 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
                 mode: Mode::Add,
                 knots: shapes::knots_of(&zs, 8),
                 pin_last: false,
+                amp: 0.0,
                 smooth: 0.3,
             },
         ),
@@ -112,6 +114,7 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
                 mode: Mode::Add,
                 knots: shapes::knots_of(&rc.t, 8),
                 pin_last: false,
+                amp: 0.0,
                 smooth: 0.3,
             },
         ),
@@ -141,6 +144,7 @@ pub fn since_family(rc: &RowCtx, smooth: f64) -> Option<Family> {
         mode: Mode::StepFraction,
         knots,
         pin_last: true,
+        amp: 0.0,
         smooth,
     })
 }

@@ -99,6 +99,9 @@ pub struct Family {
     pub pin_last: bool,
     /// Roughness weight relative to the columns' mean information.
     pub smooth: f64,
+    /// Exponent of the field in the amplitude: the value acts scaled by `(B(z_m)/B_mid)^amp`
+    /// (a step-out that shows where the field is strong).
+    pub amp: f64,
 }
 
 /// A fitted shape.
@@ -240,8 +243,14 @@ impl RowCtx {
     }
 
     /// Multiplier of a shape's value at row i on axis a (by the mode).
-    fn gain(&self, mode: Mode, i: usize, a: usize) -> f64 {
-        match mode {
+    fn gain(&self, f: &Family, i: usize, a: usize) -> f64 {
+        let scale = if f.amp != 0.0 {
+            (f.amp * self.ln_b[i]).exp()
+        } else {
+            1.0
+        };
+        scale
+            * match f.mode {
             Mode::Add => 1.0,
             Mode::Relative => self.pred[i][a],
             Mode::StepFraction => self.delta[i][a],
@@ -274,7 +283,7 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
             }
             for ax in 0..2 {
                 let col = if blocks == 1 { j } else { ax * k + j };
-                a[(2 * i + ax, col)] = wt * rc.gain(f.mode, i, ax) * rc.w[ax];
+                a[(2 * i + ax, col)] = wt * rc.gain(f, i, ax) * rc.w[ax];
             }
         }
     }
@@ -349,6 +358,7 @@ mod tests {
                 mode: Mode::Add,
                 knots: k.to_vec(),
                 pin_last: false,
+                amp: 0.0,
                 smooth: 0.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],
