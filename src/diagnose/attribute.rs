@@ -118,6 +118,9 @@ pub struct CandidateEval {
     pub form: Form,
     /// Gains of the library form and of the learned shape when the form was chosen.
     pub form_gains: Option<(f64, f64)>,
+    /// Predictions at every row of the baseline with the library form, and with the learned
+    /// shape (named effects): what each adds to the baseline, for the report's figure.
+    pub curves: Option<(Vec<[f64; 2]>, Vec<[f64; 2]>)>,
 }
 
 /// Everything attribution produced.
@@ -806,6 +809,7 @@ pub fn attribute(
                 ambiguous_with: close,
                 form: Form::Parametric,
                 form_gains: None,
+                curves: None,
             };
             if let Some(old) = out.evals.iter_mut().find(|x| x.name == e.name) {
                 if !old.accepted {
@@ -956,7 +960,16 @@ fn choose_forms(
             _ => f64::NEG_INFINITY,
         };
         let use_learned = is_shape && g_learned.is_finite() && g_param < 0.9 * g_learned;
+        let learned_pred = shape_design
+            .as_ref()
+            .filter(|_| is_shape)
+            .and_then(|d| lin.evaluate(d))
+            .map(|x| x.0);
         let e = out.evals.iter_mut().find(|e| &e.name == name);
+        let e = e.map(|e| {
+            e.curves = Some((p_fit.clone(), learned_pred.unwrap_or_default()));
+            e
+        });
         // Given the effects named before it (in whichever form they took), an effect that no
         // longer gains what names an effect is dropped: it was explaining their leftovers.
         if g_param.max(g_learned) < MIN_GAIN {

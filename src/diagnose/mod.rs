@@ -291,11 +291,22 @@ pub fn diagnose(
         .zip(&base_pred)
         .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
         .collect();
+    let n_free = ident.steady.free.len();
+    if pe.between_dof == 0 && ds.visits.len() < 3 * n_free {
+        bail!(
+            "{}: too few visits to decide: {} visit(s) and no repeats (no operating point \
+             visited twice), while the baseline alone has {n_free} free parameters; the gap is \
+             judged by the structure the visits leave beyond the baseline, which needs at least \
+             {} visits (or revisit points)",
+            log.source,
+            ds.visits.len(),
+            3 * n_free
+        );
+    }
     let noise = noise::estimate(&ds, &res).map_err(|e| anyhow::anyhow!("{}: {e}", log.source))?;
     let nv = ds.visits.len();
     let k = cfg.folds.min(nv).max(2);
     let fold_of_visit = attribute::folds(nv, k, cfg.seed);
-    let n_free = ident.steady.free.len();
     let lin = attribute::Linear::new(
         &ds,
         &ctx,

@@ -2,6 +2,7 @@
 //! diverging colour map centred on zero, residuals over session time and after input changes.
 
 use super::*;
+use crate::diagnose::{attribute, shapes};
 
 /// Mean visit residual per point (NaN where a point has no visit).
 fn point_means(d: &Diagnosis, pred: &[[f64; 2]], a: usize) -> Vec<f64> {
@@ -181,5 +182,130 @@ pub(super) fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> 
         "residuals_since_change.png".into(),
         "Row residuals against the time since the last input change".into(),
     ));
+    out.extend(effect_figures(d, dir)?);
+    Ok(out)
+}
+
+/// The axis a named effect is shown along: its learned shape's, else its physical one.
+fn effect_axis(name: &str, form: &attribute::Form) -> shapes::Axis {
+    match form {
+        attribute::Form::Learned(sh) => sh.family.axis,
+        attribute::Form::Parametric => match name {
+            "phase_lag" => shapes::Axis::F { nu: 0.0 },
+            "particle_drift" => shapes::Axis::T,
+            "formation_lag" => shapes::Axis::Since,
+            _ => shapes::Axis::Z,
+        },
+    }
+}
+
+/// For each named effect: the baseline's residual along the effect's axis, with what the
+/// learned shape and the library form add to the baseline over it, and the learned shape's
+/// heights with a 2-SD band where it acts in mm: why the effect was named, and why in that
+/// form.
+fn effect_figures(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> {
+    let mut out = Vec::new();
+    let ds = &d.ds;
+    let base = &d.attr.baseline.pred;
+    for e in d.attr.evals.iter().filter(|e| e.accepted) {
+        let Some((lib, learned)) = &e.curves else {
+            continue;
+        };
+        let axis = effect_axis(&e.name, &e.form);
+        let b_mid = d.ctx.b_mid;
+        let x_of = |i: usize| -> f64 {
+            let r = &ds.rows[i];
+            match axis {
+                shapes::Axis::F { nu } => {
+                    let b = candidates::field_b(&d.ident.model, r.z) / b_mid;
+                    r.f * b.max(1e-300).powf(-nu)
+                }
+                shapes::Axis::Z => r.z,
+                shapes::Axis::T => r.t,
+                shapes::Axis::Since => r.since,
+            }
+        };
+        // Visit means (rows for the time since a change, where the shape lives within visits).
+        let series = |vals: &dyn Fn(usize, usize) -> f64, a: usize| -> Vec<(f64, f64)> {
+            if axis == shapes::Axis::Since {
+                return (0..ds.rows.len())
+                    .filter(|&i| ds.visits[ds.rows[i].visit].prev.is_some())
+                    .map(|i| (x_of(i), vals(i, a)))
+                    .collect();
+            }
+            ds.visits
+                .iter()
+                .filter(|v| !v.rows.is_empty())
+                .map(|v| {
+                    let n = v.rows.len() as f64;
+                    let x = v.rows.iter().map(|&i| x_of(i)).sum::<f64>() / n;
+                    let y = v.rows.iter().map(|&i| vals(i, a)).sum::<f64>() / n;
+                    (x, y)
+                })
+                .collect()
+        };
+        let panels: Vec<Panel> = (0..2)
+            .map(|a| {
+                let mut s = vec![Series::points(
+                    "baseline residual",
+                    series(&|i, a| ds.rows[i].r[a] - base[i][a], a),
+                )
+                .with_color(plot::RGBColor(150, 150, 150))];
+                if !learned.is_empty() {
+                    s.push(
+                        Series::points(
+                            "learned shape adds",
+                            series(&|i, a| learned[i][a] - base[i][a], a),
+                        )
+                        .with_color(plot::RGBColor(213, 94, 0)),
+                    );
+                }
+                s.push(
+                    Series::points(
+                        "library form adds",
+                        series(&|i, a| lib[i][a] - base[i][a], a),
+                    )
+                    .with_color(plot::RGBColor(0, 158, 115)),
+                );
+                if let attribute::Form::Learned(sh) = &e.form {
+                    if sh.family.mode == shapes::Mode::Add && sh.family.amp == 0.0 {
+                        let k = &sh.family.knots;
+                        let line = |f: f64| -> Vec<(f64, f64)> {
+                            k.iter()
+                                .enumerate()
+                                .map(|(j, &x)| (x, sh.values[a][j] + f * sh.sd[a][j]))
+                                .collect()
+                        };
+                        s.push(Series::line("learned shape [mm]", line(0.0)));
+                        s.push(Series::dashed("+/- 2 SD", line(2.0)));
+                        s.push(Series::dashed("", line(-2.0)));
+                    }
+                }
+                Panel {
+                    y_label: format!("r{} [mm]", a + 1),
+                    series: s,
+                }
+            })
+            .collect();
+        let file = format!("effect_{}.png", e.name);
+        let form = match &e.form {
+            attribute::Form::Learned(sh) => format!("learned, {}", sh.family.mode.key()),
+            attribute::Form::Parametric => "library form".into(),
+        };
+        plot::time_panels(
+            &dir.join(&file),
+            &format!("{}: baseline residual and the effect ({form})", e.name),
+            &axis.label(),
+            &panels,
+        )?;
+        out.push((
+            file,
+            format!(
+                "{}: the baseline's residual along {} with what the learned shape and the library form add to the baseline",
+                e.name,
+                axis.label()
+            ),
+        ));
+    }
     Ok(out)
 }

@@ -36,7 +36,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             gt.families.join(", ")
         );
         if d.attr.accepted.is_empty() {
-            let _ = writeln!(w, "No candidate effect passed every rule: the gap is reported as **unexplained** rather than given a name the data do not support.\n");
+            let _ = writeln!(w, "{}: the gap is reported as **unexplained** rather than given a name the data do not support.\n", if d.attr.anomaly_won { "A local anomaly (a small box of operating points that no effect describes) explains it better than any effect" } else { "No candidate effect lies beyond its null" });
         } else {
             let _ = writeln!(
                 w,
@@ -45,7 +45,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             );
         }
         for (a, b) in &d.attr.ambiguous {
-            let _ = writeln!(w, "Ambiguous: `{a}` and `{b}` explain the same residual equally well on withheld visits; neither is named.\n");
+            let _ = writeln!(w, "Close alternative: `{b}` came within 80 % of `{a}`'s excess over its null on withheld visits; `{a}` is named (see the candidate table).\n");
         }
     }
     let ex = d.excess_removed();
@@ -112,33 +112,26 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         pct(ex[2])
     );
     let _ = writeln!(w, "## Is there a gap\n");
-    let _ = writeln!(w, "| test | r1 | r2 | in the decision |\n|---|---|---|---|");
-    let _ =
-        writeln!(
+    let _ = writeln!(
         w,
-        "| lack of fit F (pure error from {}) | F = {} (p = {:.2e}) | F = {} (p = {:.2e}) | {} |",
-        if gt.lof_from_visits { "repeat visits" } else { "rows within visits" },
+        "Noise the tests are calibrated against (per axis r1 / r2): a row around its visit's mean {} / {} mm; a visit's mean around the truth {} / {} mm, from {} differences of neighbouring or repeated visits ({} repeats) -- with each point visited once, the roughness of the residual surface.\n",
+        g(d.noise.within[0]),
+        g(d.noise.within[1]),
+        g(d.noise.visit[0]),
+        g(d.noise.visit[1]),
+        d.noise.pairs,
+        d.noise.repeat_pairs
+    );
+    let _ = writeln!(w, "| family | alternative | statistic | bootstrap p |\n|---|---|---|---|");
+    for a in &d.detection.alts {
+        let _ = writeln!(w, "| {} | {} | {} | {:.2e} |", a.family, a.name, g(a.stat), a.p);
+    }
+    let _ = writeln!(
+        w,
+        "\nEach alternative is a smooth shape (over f, over z_m, a surface over both, over session time, over the time since an input change scaled by the step) or the strongest box of neighbouring operating points, refitted jointly with the baseline's free parameters; the statistic is the drop of the residual sum of squares in row-noise units, studentised by the visit noise of the same residual. Its null distribution comes from {} logs of pure noise with this log's design and noise structure (visit offsets and row noise), each refitted and re-estimated like the real one. Family p = smallest alternative's x alternatives; combined p = smallest family's x families (Bonferroni). For the record, the classical lack-of-fit F test (pure error from {}): r1 F = {} (p = {:.2e}), r2 F = {} (p = {:.2e}).\n",
+        d.cfg.boot,
+        if gt.lof_from_visits { "repeat visits" } else { "rows within visits, which cannot see the visit-to-visit error: not in the decision" },
         g(gt.lof[0].f), gt.lof[0].p, g(gt.lof[1].f), gt.lof[1].p,
-        if gt.lof_from_visits { "yes" } else { "no: visit-to-visit error would look like a gap" }
-    );
-    let _ = writeln!(
-        w,
-        "| structure over (z_m, f), permutation | p = {:.3} | p = {:.3} | yes |",
-        gt.space_p[0], gt.space_p[1]
-    );
-    let _ = writeln!(
-        w,
-        "| drift over session time, permutation | p = {:.3} | p = {:.3} | yes |",
-        gt.drift_p[0], gt.drift_p[1]
-    );
-    let _ = writeln!(
-        w,
-        "| lag after input changes ({} visits), paired t | p = {:.3} | p = {:.3} | yes |\n",
-        gt.trans_visits, gt.trans_p[0], gt.trans_p[1]
-    );
-    let _ = writeln!(
-        w,
-        "Combined p = min over families x number of families x 2 axes (Bonferroni).\n"
     );
     let _ = writeln!(w, "## Where\n");
     if d.regions.is_empty() {
@@ -175,29 +168,51 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             "Not evaluated: there is no significant gap to attribute.\n"
         );
     } else {
-        let _ = writeln!(w, "| effect | round | withheld log-lik gain | BIC penalty | p (paired, one-sided) | plausible | signature (share of a region removed) | withheld RMSE r1 / r2 [mm] | parameters | verdict |\n|---|---|---|---|---|---|---|---|---|---|");
+        let _ = writeln!(w, "| effect | round | withheld gain | null {:.0} % quantile | bootstrap p | best variant | form in the model (gain library / learned) | notes | share of a region removed | withheld RMSE r1 / r2 [mm] | parameters | verdict |\n|---|---|---|---|---|---|---|---|---|---|---|---|", 100.0 * (1.0 - d.cfg.alpha));
         for e in &d.attr.evals {
             let cv = crate::diagnose::rmse(&d.ds, &e.model.cv);
-            let ps = param_strings(&e.name, &e.model.full.aug.synced());
-            let verdict = if e.accepted {
-                "**accepted**".to_string()
-            } else if !e.ambiguous_with.is_empty() {
-                format!("ambiguous with {}", e.ambiguous_with.join(", "))
-            } else if e.passed {
-                "passed, not needed".into()
+            let form = match &e.form {
+                crate::diagnose::attribute::Form::Learned(sh) => format!(
+                    "learned shape over {}, {} ({} knots)",
+                    sh.family.axis.label(),
+                    sh.family.mode.key(),
+                    sh.family.knots.len()
+                ),
+                crate::diagnose::attribute::Form::Parametric if e.accepted => "library form".into(),
+                _ => "-".into(),
+            };
+            let form = match e.form_gains {
+                Some((l, s)) => format!("{form} ({} / {})", g(l), g(s)),
+                None => form,
+            };
+            let ps = if e.accepted && matches!(e.form, crate::diagnose::attribute::Form::Parametric) {
+                param_strings(&e.name, &e.model.full.aug.synced())
             } else {
-                "rejected".into()
+                Vec::new()
+            };
+            let verdict = if e.accepted {
+                if e.ambiguous_with.is_empty() {
+                    "**named**".to_string()
+                } else {
+                    format!("**named** (close: {})", e.ambiguous_with.join(", "))
+                }
+            } else if e.passed {
+                "beyond its null, not the best".into()
+            } else {
+                "within its null".into()
             };
             let _ = writeln!(
                 w,
-                "| {} | {} | {} | {} | {:.2e} | {} | {:.0} %{} | {:.3} / {:.3} | {} | {} |",
+                "| {} | {} | {} | {} | {:.2e} | {} | {} | {} | {:.0} %{} | {:.3} / {:.3} | {} | {} |",
                 e.name,
                 e.round,
                 g(e.gain),
                 g(e.penalty),
                 e.p,
+                e.variant,
+                form,
                 if e.implausible.is_empty() {
-                    "yes".to_string()
+                    "-".to_string()
                 } else {
                     e.implausible.join("; ")
                 },
@@ -209,11 +224,21 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 },
                 cv.rmse[0],
                 cv.rmse[1],
-                ps.join(", "),
+                if ps.is_empty() { "-".to_string() } else { ps.join(", ") },
                 verdict
             );
         }
-        let _ = writeln!(w, "\nRules (all must hold): withheld log-likelihood gain over the model of the previous round above the BIC penalty (k/2 ln visits); per-visit gains positive by a paired t test at alpha; no parameter at a fit bound and locations inside the data; and, refitted on all data, at least half of a significant region's residual removed, or no significant gap left with it. Forward selection adds effects one at a time. The candidates are the model's own effect terms (docs/effects.md), refitted with the baseline; what each frees is in `src/diagnose/candidates.rs`. An accepted effect is switched on in `augmented.json` with these parameters.\n");
+        if let Some((gain, q, p)) = d.attr.anomaly {
+            let _ = writeln!(
+                w,
+                "\nThe local anomaly (the strongest small box of operating points, which no effect describes): withheld gain {} against a null quantile of {} (p = {:.2e}){}.",
+                g(gain),
+                g(q),
+                p,
+                if d.attr.anomaly_won { ": it beat every effect, so the gap is reported unexplained" } else { "" }
+            );
+        }
+        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in row-noise units, best variant) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p < alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::diagnose::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
     }
     let _ = writeln!(w, "## Unexplained\n");
     if d.unexplained.is_empty() {

@@ -254,7 +254,7 @@ pub fn summary(d: &Diagnosis) -> String {
         }
     );
     for (a, b) in &d.attr.ambiguous {
-        let _ = writeln!(s, "  ambiguous: {a} / {b} (neither named)");
+        let _ = writeln!(s, "  close alternative to {a}: {b}");
     }
     for u in &d.unexplained {
         let _ = writeln!(s, "  unexplained: {}", describe_region(&u.region));
