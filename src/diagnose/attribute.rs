@@ -741,9 +741,9 @@ pub fn attribute(
         order.sort_by(|&a, &b| excess(&scored[b]).total_cmp(&excess(&scored[a])));
         let mut best = order.first().copied();
         // A local anomaly ahead of every effect: an effect that passed still names the gap if
-        // it keeps a gain beyond its null on top of the anomaly's box (the effect is there,
-        // the box took its strongest part); otherwise the gap is a local one no effect
-        // describes.
+        // its excess comes within 60 % of the anomaly's, or if it keeps a gain beyond its null
+        // on top of the anomaly's box (the effect is there, the box took its strongest part);
+        // otherwise the gap is a local one no effect describes.
         if let Some(b) = best.filter(|&b| scored[b].name == "local_anomaly") {
             let boxed = scored[b]
                 .best
@@ -766,8 +766,13 @@ pub fn attribute(
                 let g = gain(&s0, &s1, &lin.y, [1.0, 1.0]);
                 g >= MIN_GAIN.max(quantile(&scored[e].null, 1.0 - st.alpha))
             });
-            if rescued.is_some() {
-                best = rescued;
+            // A near tie goes to the effect: a physical description that explains the box
+            // nearly as well is the better report (the leftover, if any, is tested next).
+            let close = order.iter().copied().skip(1).find(|&e| {
+                scored[e].name != "local_anomaly" && excess(&scored[e]) >= 0.6 * excess(&scored[b])
+            });
+            if let Some(e) = close.or(rescued) {
+                best = Some(e);
             }
         }
         let winner = best.map(|b| scored[b].name);

@@ -194,7 +194,7 @@ pub fn unweight(e: &DVector<f64>, w: [f64; 2]) -> Vec<[f64; 2]> {
 
 /// The strongest box of neighbouring cells of the (z_m, f) grid: max over axes and boxes of
 /// |sum of visit residuals| / (visit SD sqrt(visits)). With `proper`, only boxes that span
-/// neither every z_m level nor every f level and hold at most a quarter of the visits (a
+/// neither every z_m level nor every f level and hold at most 12 % of the visits (a
 /// local anomaly, not a shape along one input). Returns (statistic, axis, z cells, f cells).
 pub fn box_scan(
     ds: &Dataset,
@@ -238,7 +238,7 @@ pub fn box_scan(
                             continue;
                         }
                         let n = rect(&c, z0, z1, f0, f1);
-                        if n < 1.0 || (proper && n > 0.25 * nv as f64) {
+                        if n < 1.0 || (proper && n > (0.12 * nv as f64).max(4.0)) {
                             continue;
                         }
                         let stat = rect(&s, z0, z1, f0, f1).abs() / (sd[a] * n.sqrt());

@@ -371,9 +371,17 @@ pub fn diagnose(
         .collect();
     let vr_cv = gap::visit_residuals(&ds, &res_cv);
     let pe_aug = data::pure_error_of(&ds, &res_aug);
-    let floor = match noise::estimate(&ds, &res_aug) {
-        Ok(n) => n.row(),
-        Err(_) => pe_aug.row_sd(),
+    // The floor is what a perfect model would leave on withheld rows: the rows' scatter within
+    // a visit (an RMS, not a robust scale: heavy-tailed rows count in an RMSE) and the
+    // visit-to-visit part, from repeat visits where there are any, else from the roughness of
+    // the augmented model's residual surface.
+    let floor = if pe_aug.between_dof > 0 {
+        pe_aug.row_sd()
+    } else {
+        match noise::estimate(&ds, &res_aug) {
+            Ok(n) => [0, 1].map(|a| (pe_aug.within_sd[a].powi(2) + n.between[a].powi(2)).sqrt()),
+            Err(_) => pe_aug.row_sd(),
+        }
     };
     let vr_aug = gap::visit_residuals(&ds, &res_aug);
     let xs: Vec<Vec<f64>> = gap::coords(&ds).iter().map(|c| c.to_vec()).collect();
