@@ -28,7 +28,7 @@ use magswarm::model::Model;
 
 fn cfg() -> Config {
     Config {
-        permutations: 299,
+        boot: 299,
         ..Config::default()
     }
 }
@@ -309,7 +309,7 @@ fn command_writes_the_contract_files() {
         out: out.clone(),
         alpha: 0.01,
         folds: 5,
-        permutations: 199,
+        bootstrap: 199,
         seed: 1,
         lenient: false,
     })

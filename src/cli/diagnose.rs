@@ -23,10 +23,11 @@ pub struct DiagnoseArgs {
     /// Cross-validation folds (groups of whole visits).
     #[arg(long, default_value_t = 5)]
     pub folds: usize,
-    /// Permutations of the structure tests.
-    #[arg(long, default_value_t = 499)]
-    pub permutations: usize,
-    /// Random seed (folds, permutations).
+    /// Simulated logs (parametric bootstrap) that calibrate the gap tests and the naming of
+    /// effects; p-values below 1/(N+1) are extrapolated from a gamma fit to the simulations.
+    #[arg(long, default_value_t = 499, alias = "permutations")]
+    pub bootstrap: usize,
+    /// Random seed (folds, simulations).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Skip bad rows (each reported on stderr) instead of failing.

@@ -310,6 +310,7 @@ impl<'a> Linear<'a> {
 enum Variant {
     Shape(Family),
     Column(&'static str, DMatrix<f64>),
+    Columns(&'static str, DMatrix<f64>, DMatrix<f64>),
     Anomaly,
 }
 
@@ -403,6 +404,25 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
             }
         });
         if col.norm() > 1e-9 {
+            // The same correction with an amplitude that may vary over z_m (an axis that is
+            // not parallel to the field's: the swarm further off it at some depths than at
+            // others), in the library form's own ratio of r1 to r2.
+            let kz = shapes::knots_of(&rc.z, 6);
+            if kz.len() >= 2 {
+                let k = kz.len();
+                let mut a = DMatrix::zeros(2 * ds.rows.len(), k);
+                for i in 0..ds.rows.len() {
+                    for (j, wt) in shapes::hat(&kz, rc.z[i]) {
+                        for ax in 0..2 {
+                            a[(2 * i + ax, j)] = wt * col[(2 * i + ax, 0)];
+                        }
+                    }
+                }
+                let info = (0..k).map(|c| a.column(c).norm_squared()).sum::<f64>() / k as f64;
+                let info = info.max(1e-12);
+                let pen = crate::diagnose::linear::roughness(k, 1, 0.3 * info, 1e-3 * info);
+                cv.push(Variant::Columns("offset, amplitude over z_m", a, pen));
+            }
             cv.push(Variant::Column("offset", col));
         }
     }
@@ -429,6 +449,7 @@ fn columns_of(v: &Variant, rc: &RowCtx) -> Option<(DMatrix<f64>, DMatrix<f64>)> 
     match v {
         Variant::Shape(f) => Some(shapes::columns(f, rc)),
         Variant::Column(_, c) => Some((c.clone(), DMatrix::identity(c.ncols(), c.ncols()) * 1e-8)),
+        Variant::Columns(_, c, p) => Some((c.clone(), p.clone())),
         Variant::Anomaly => None,
     }
 }
@@ -493,6 +514,7 @@ fn describe(v: &Variant) -> String {
             f.smooth
         ),
         Variant::Column(n, _) => format!("library form's {n} (amplitude free)"),
+        Variant::Columns(n, ..) => format!("library form's {n}"),
         Variant::Anomaly => "strongest small box of operating points".into(),
     }
 }
@@ -739,6 +761,16 @@ pub fn attribute(
         // search over boxes: the excess is a calibrated penalty for flexibility.
         let excess = |s: &Scored| s.gain - quantile(&s.null, 1.0 - st.alpha);
         order.sort_by(|&a, &b| excess(&scored[b]).total_cmp(&excess(&scored[a])));
+        // Candidates within 5 % of the top excess are tied: the one least likely under its own
+        // null (smallest bootstrap p) goes first (a constrained form that fits as well as a
+        // flexible one is the more specific description).
+        if let Some(&top) = order.first() {
+            let tied = order
+                .iter()
+                .take_while(|&&i| excess(&scored[i]) >= 0.95 * excess(&scored[top]))
+                .count();
+            order[..tied].sort_by(|&a, &b| scored[a].p.total_cmp(&scored[b].p));
+        }
         let mut best = order.first().copied();
         // A local anomaly ahead of every effect: an effect that passed still names the gap if
         // its excess comes within 60 % of the anomaly's, or if it keeps a gain beyond its null

@@ -57,8 +57,6 @@ pub struct Config {
     pub alpha: f64,
     /// Folds.
     pub folds: usize,
-    /// Permutations.
-    pub permutations: usize,
     /// Seed.
     pub seed: u64,
     /// Most effects accepted together.
@@ -74,10 +72,9 @@ impl Default for Config {
         Config {
             alpha: 0.01,
             folds: 5,
-            permutations: 499,
             seed: 1,
             max_effects: 3,
-            boot: 199,
+            boot: 499,
             progress: false,
         }
     }
@@ -493,7 +490,7 @@ pub fn run(a: &DiagnoseArgs) -> Result<()> {
     let cfg = Config {
         alpha: a.alpha,
         folds: a.folds.max(2),
-        permutations: a.permutations.max(19),
+        boot: a.bootstrap.max(19),
         seed: a.seed,
         progress: true,
         ..Config::default()
