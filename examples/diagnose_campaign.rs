@@ -79,7 +79,7 @@ fn main() -> Result<()> {
         out: out.clone(),
         alpha: 0.01,
         folds: 5,
-        boot: 499,
+        bootstrap: 499,
         seed: 1,
         lenient: false,
     };
