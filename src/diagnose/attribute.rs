@@ -242,7 +242,11 @@ impl<'a> Linear<'a> {
         let ln_b = ds
             .rows
             .iter()
-            .map(|r| (candidates::field_b(&base.model, r.z) / ctx.b_mid).max(1e-300).ln())
+            .map(|r| {
+                (candidates::field_b(&base.model, r.z) / ctx.b_mid)
+                    .max(1e-300)
+                    .ln()
+            })
             .collect();
         // Sensitivity of the steady map to the drive frequency (central differences).
         let dmap_df: Vec<[f64; 2]> = {
@@ -251,7 +255,10 @@ impl<'a> Linear<'a> {
                 .iter()
                 .map(|&(z, f)| {
                     let h = 0.02 * f.abs().max(0.5);
-                    let (a, b) = (candidates::map_at(&m, z, f + h), candidates::map_at(&m, z, f - h));
+                    let (a, b) = (
+                        candidates::map_at(&m, z, f + h),
+                        candidates::map_at(&m, z, f - h),
+                    );
                     let d = |i: usize| {
                         let v = (a[i] - b[i]) / (2.0 * h);
                         if v.is_finite() {
@@ -366,7 +373,12 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
             "formation_lag",
             smooths
                 .iter()
-                .map(|&s| Variant::Shape(Family { smooth: s, ..f.clone() }))
+                .map(|&s| {
+                    Variant::Shape(Family {
+                        smooth: s,
+                        ..f.clone()
+                    })
+                })
                 .collect(),
         ));
     }
@@ -391,8 +403,7 @@ fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
     let mut cv = Vec::new();
     for o in [3.0, 8.0, 16.0] {
         let mut a = lin.base.clone();
-        a.effects
-            .push(("centroid_offset".into(), vec![o]));
+        a.effects.push(("centroid_offset".into(), vec![o]));
         let p = candidates::predict(&a, ds);
         let col = DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| {
             let (i, ax) = (s / 2, s % 2);
@@ -667,8 +678,11 @@ fn linear_model(lin: &Linear, d: &Design, learned: &[(String, Family)]) -> Optio
         let (cols, _) = shapes::columns(fam, &lin.rc);
         let q = cols.ncols();
         let coef: Vec<f64> = (0..q).map(|j| beta[at + j]).collect();
-        let sd: Vec<f64> = (0..q).map(|j| inv[(at + j, at + j)].max(0.0).sqrt()).collect();
-        aug.learned.push((name.clone(), shapes::shape_of(fam, &coef, &sd)));
+        let sd: Vec<f64> = (0..q)
+            .map(|j| inv[(at + j, at + j)].max(0.0).sqrt())
+            .collect();
+        aug.learned
+            .push((name.clone(), shapes::shape_of(fam, &coef, &sd)));
         at += q;
     }
     Some(aug)
@@ -954,7 +968,9 @@ fn choose_forms(
         // library forms named before it, its correction then one column of the design.
         let mut start = lin.base.clone();
         for p in &parametric {
-            start.effects.push((p.clone(), candidates::neutral(p, lin.ctx)));
+            start
+                .effects
+                .push((p.clone(), candidates::neutral(p, lin.ctx)));
         }
         start
             .effects
@@ -1046,7 +1062,8 @@ fn choose_forms(
         .unwrap_or_else(|| lin.base.clone());
     if !parametric.is_empty() {
         for p in &parametric {
-            aug.effects.push((p.clone(), candidates::neutral(p, lin.ctx)));
+            aug.effects
+                .push((p.clone(), candidates::neutral(p, lin.ctx)));
         }
         let last = parametric.last().cloned().unwrap_or_default();
         let starts = if parametric.len() == 1 {

@@ -497,7 +497,11 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
     // re-evaluates the map at the slower rotation).
     let mut corr = vec![[0.0; 2]; map.len()];
     let mut map2 = map.to_vec();
-    for (_, sh) in aug.learned.iter().filter(|(_, s)| steady_axes(s.family.axis)) {
+    for (_, sh) in aug
+        .learned
+        .iter()
+        .filter(|(_, s)| steady_axes(s.family.axis))
+    {
         for (p, v) in map2.iter_mut().enumerate() {
             let scale = (sh.family.amp * ln_b[p]).exp();
             let c = sh.at(x_of(sh.family.axis, p, 0.0, 0.0)).map(|c| c * scale);
@@ -537,9 +541,15 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
         for a in 0..2 {
             out[i][a] += corr[r.point][a];
         }
-        for (_, sh) in aug.learned.iter().filter(|(_, s)| !steady_axes(s.family.axis)) {
+        for (_, sh) in aug
+            .learned
+            .iter()
+            .filter(|(_, s)| !steady_axes(s.family.axis))
+        {
             let scale = (sh.family.amp * ln_b[r.point]).exp();
-            let c = sh.at(x_of(sh.family.axis, r.point, r.t, r.since)).map(|c| c * scale);
+            let c = sh
+                .at(x_of(sh.family.axis, r.point, r.t, r.since))
+                .map(|c| c * scale);
             for a in 0..2 {
                 match sh.family.mode {
                     Mode::Relative => out[i][a] *= 1.0 + c[a],

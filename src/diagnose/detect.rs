@@ -227,7 +227,9 @@ pub fn box_scan(
             }
         }
         let rect = |t: &[f64], z0: usize, z1: usize, f0: usize, f1: usize| {
-            t[(z1 + 1) * (nf + 1) + f1 + 1] - t[z0 * (nf + 1) + f1 + 1] - t[(z1 + 1) * (nf + 1) + f0]
+            t[(z1 + 1) * (nf + 1) + f1 + 1]
+                - t[z0 * (nf + 1) + f1 + 1]
+                - t[(z1 + 1) * (nf + 1) + f0]
                 + t[z0 * (nf + 1) + f0]
         };
         for z0 in 0..nz {

@@ -219,7 +219,9 @@ mod tests {
     #[test]
     fn roughness_leaves_lines_free() {
         let pen = roughness(5, 2, 10.0, 0.0);
-        let line = DVector::from_fn(10, |i, _| (i % 5) as f64 * 0.7 + if i < 5 { 1.0 } else { -2.0 });
+        let line = DVector::from_fn(10, |i, _| {
+            (i % 5) as f64 * 0.7 + if i < 5 { 1.0 } else { -2.0 }
+        });
         assert!((line.transpose() * &pen * &line)[(0, 0)].abs() < 1e-9);
         let kink = DVector::from_fn(10, |i, _| if i == 2 { 1.0 } else { 0.0 });
         assert!((kink.transpose() * &pen * &kink)[(0, 0)] > 1.0);

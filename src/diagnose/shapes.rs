@@ -139,7 +139,10 @@ pub fn hat(knots: &[f64], x: f64) -> Vec<(usize, f64)> {
     if x >= knots[k - 1] {
         return vec![(k - 1, 1.0)];
     }
-    let j = knots.partition_point(|&v| v <= x).saturating_sub(1).min(k - 2);
+    let j = knots
+        .partition_point(|&v| v <= x)
+        .saturating_sub(1)
+        .min(k - 2);
     let u = (x - knots[j]) / (knots[j + 1] - knots[j]);
     vec![(j, 1.0 - u), (j + 1, u)]
 }
@@ -251,11 +254,11 @@ impl RowCtx {
         };
         scale
             * match f.mode {
-            Mode::Add => 1.0,
-            Mode::Relative => self.pred[i][a],
-            Mode::StepFraction => self.delta[i][a],
-            Mode::Rate => -self.dmap_df[i][a],
-        }
+                Mode::Add => 1.0,
+                Mode::Relative => self.pred[i][a],
+                Mode::StepFraction => self.delta[i][a],
+                Mode::Rate => -self.dmap_df[i][a],
+            }
     }
 }
 
@@ -334,7 +337,9 @@ pub fn fit(
     let p0 = base.cols();
     let q = cols.ncols();
     let coef: Vec<f64> = (0..q).map(|j| beta[p0 + j]).collect();
-    let sd: Vec<f64> = (0..q).map(|j| inv[(p0 + j, p0 + j)].max(0.0).sqrt()).collect();
+    let sd: Vec<f64> = (0..q)
+        .map(|j| inv[(p0 + j, p0 + j)].max(0.0).sqrt())
+        .collect();
     let fitted = &d.a * beta;
     Some((shape_of(f, &coef, &sd), fitted))
 }

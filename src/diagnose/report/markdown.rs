@@ -122,9 +122,19 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         d.noise.pairs,
         d.noise.repeat_pairs
     );
-    let _ = writeln!(w, "| family | alternative | statistic | bootstrap p |\n|---|---|---|---|");
+    let _ = writeln!(
+        w,
+        "| family | alternative | statistic | bootstrap p |\n|---|---|---|---|"
+    );
     for a in &d.detection.alts {
-        let _ = writeln!(w, "| {} | {} | {} | {:.2e} |", a.family, a.name, g(a.stat), a.p);
+        let _ = writeln!(
+            w,
+            "| {} | {} | {} | {:.2e} |",
+            a.family,
+            a.name,
+            g(a.stat),
+            a.p
+        );
     }
     let _ = writeln!(
         w,
@@ -185,7 +195,8 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 Some((l, s)) => format!("{form} ({} / {})", g(l), g(s)),
                 None => form,
             };
-            let ps = if e.accepted && matches!(e.form, crate::diagnose::attribute::Form::Parametric) {
+            let ps = if e.accepted && matches!(e.form, crate::diagnose::attribute::Form::Parametric)
+            {
                 param_strings(&e.name, &e.model.full.aug.synced())
             } else {
                 Vec::new()
