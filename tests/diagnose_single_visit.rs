@@ -120,7 +120,18 @@ fn a_band_over_f_at_every_z_is_found_and_named_phase_lag() {
             d.regions
         );
         let ex = d.excess_removed()[2].expect("an excess");
-        assert!(ex >= 0.5, "seed {seed}: {:.0} % removed", 100.0 * ex);
+        assert!(
+            ex >= 0.5,
+            "seed {seed}: {:.0} % removed; {:?}; {:?}",
+            100.0 * ex,
+            d.rmse_table(),
+            d.attr
+                .evals
+                .iter()
+                .filter(|e| e.accepted)
+                .map(|e| (&e.name, e.form_gains, &e.variant))
+                .collect::<Vec<_>>()
+        );
     }
 }
 

@@ -912,6 +912,12 @@ pub fn attribute(
     let mut ev = eval_of(&design, names, aug.clone());
     // In-sample predictions through the model itself (what `predict` and the FMU replay).
     ev.pred = candidates::predict(&aug, ds);
+    // With a library form in the model, its withheld predictions come from nonlinear refits
+    // per fold (learned heights held), so that its location is never fitted on the visits it
+    // predicts.
+    if !aug.effects.is_empty() {
+        ev.cv = library_cv(lin, &aug);
+    }
     out.augmented = ev;
     // Reasons, for the table: the library form's plausibility, regions' residual removed.
     let res_base = residuals(ds, &base.pred);
@@ -947,6 +953,8 @@ fn choose_forms(
     let mut design = lin.jac.clone();
     let mut learned: Vec<(String, Family)> = Vec::new();
     let mut parametric: Vec<String> = Vec::new();
+    // The library forms chosen so far, at their fitted values (fit space).
+    let mut lib_fits: Vec<(String, Vec<f64>)> = Vec::new();
     let one = vec![0usize; lin.y.len()];
     for (name, vs) in named {
         let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
@@ -966,12 +974,9 @@ fn choose_forms(
         };
         // The library form: fitted by the nonlinear fitter on top of the baseline and the
         // library forms named before it, its correction then one column of the design.
-        let mut start = lin.base.clone();
-        for p in &parametric {
-            start
-                .effects
-                .push((p.clone(), candidates::neutral(p, lin.ctx)));
-        }
+        let mut start = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
+            .unwrap_or_else(|| lin.base.clone());
+        start.effects = lib_fits.clone();
         start
             .effects
             .push((name.clone(), candidates::neutral(name, lin.ctx)));
@@ -1006,10 +1011,25 @@ fn choose_forms(
             None => col,
         };
         let param_design = design.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
+        // The library form's withheld gain: each fold refitted by the nonlinear fitter (its
+        // location and shape included, from the full fit), against the current design's
+        // withheld residual. (A column from the full fit with a free amplitude would know
+        // the withheld visits through the fitted location.)
         let g_param = match &before {
-            Some(b) if col.norm() > 1e-9 => Solver::new(&param_design, &lin.fold_of_stacked, lin.k)
-                .map(|s| gain(b, &s, &lin.y, [1.0, 1.0]))
-                .unwrap_or(f64::NEG_INFINITY),
+            Some(b) if col.norm() > 1e-9 => {
+                let e0 = linear::sse_axes(&b.cv_residual(&lin.y));
+                let cv = library_cv(lin, &fr.aug);
+                let e1 = linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
+                    let (i, a) = (s / 2, s % 2);
+                    let v = lin.rc.w[a] * (ds.rows[i].r[a] - cv[i][a]);
+                    if v.is_finite() {
+                        v
+                    } else {
+                        1e3
+                    }
+                }));
+                0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
+            }
             _ => f64::NEG_INFINITY,
         };
         let use_learned = is_shape && g_learned.is_finite() && g_param < 0.9 * g_learned;
@@ -1049,6 +1069,9 @@ fn choose_forms(
             }
         } else {
             parametric.push(name.clone());
+            if let Some(v) = fr.aug.effects.iter().find(|(n, _)| n == name) {
+                lib_fits.push(v.clone());
+            }
             design = param_design;
             if let Some(e) = e {
                 e.form_gains = Some((g_param, g_learned));
@@ -1061,18 +1084,11 @@ fn choose_forms(
     let mut aug = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
         .unwrap_or_else(|| lin.base.clone());
     if !parametric.is_empty() {
-        for p in &parametric {
-            aug.effects
-                .push((p.clone(), candidates::neutral(p, lin.ctx)));
-        }
-        let last = parametric.last().cloned().unwrap_or_default();
-        let starts = if parametric.len() == 1 {
-            candidates::starts(&last, lin.ctx, ds)
-        } else {
-            Vec::new()
-        };
+        // From each library form's own fit (a joint refit from neutral values would stay at
+        // the piece of the cost where the effects vanish).
+        aug.effects = lib_fits.clone();
         let all: Vec<usize> = (0..ds.rows.len()).collect();
-        let fr = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &starts);
+        let fr = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]);
         aug = fr.aug;
     }
     aug.sync_model();
@@ -1082,6 +1098,28 @@ fn choose_forms(
         }
     }
     (aug, design)
+}
+
+/// Withheld predictions of a fitted augmented model: each fold refitted on the other folds'
+/// rows by the nonlinear fitter, from the full fit.
+fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
+    let ds = lin.ds;
+    let mut cv = vec![[0.0; 2]; ds.rows.len()];
+    let fold_of_row: Vec<usize> = (0..ds.rows.len()).map(|i| lin.fold_of_stacked[2 * i]).collect();
+    for f in 0..lin.k {
+        let train: Vec<usize> = (0..ds.rows.len()).filter(|&i| fold_of_row[i] != f).collect();
+        if train.len() == ds.rows.len() {
+            continue;
+        }
+        let fr = fitter::fit(full, lin.free, ds, lin.ctx, &train, lin.noise.row(), &[]);
+        let p = candidates::predict(&fr.aug, ds);
+        for i in 0..ds.rows.len() {
+            if fold_of_row[i] == f {
+                cv[i] = p[i];
+            }
+        }
+    }
+    cv
 }
 
 impl Linear<'_> {
