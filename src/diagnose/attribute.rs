@@ -953,8 +953,8 @@ fn choose_forms(
     let mut design = lin.jac.clone();
     let mut learned: Vec<(String, Family)> = Vec::new();
     let mut parametric: Vec<String> = Vec::new();
-    // The library forms chosen so far, at their fitted values (fit space).
-    let mut lib_fits: Vec<(String, Vec<f64>)> = Vec::new();
+    // The last library fit (free parameters and library forms fitted together).
+    let mut last_lib: Option<Augmented> = None;
     let one = vec![0usize; lin.y.len()];
     for (name, vs) in named {
         let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
@@ -974,9 +974,15 @@ fn choose_forms(
         };
         // The library form: fitted by the nonlinear fitter on top of the baseline and the
         // library forms named before it, its correction then one column of the design.
-        let mut start = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
+        let lin_start = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
             .unwrap_or_else(|| lin.base.clone());
-        start.effects = lib_fits.clone();
+        let mut start = match &last_lib {
+            Some(l) => Augmented {
+                learned: lin_start.learned.clone(),
+                ..l.clone()
+            },
+            None => lin_start,
+        };
         start
             .effects
             .push((name.clone(), candidates::neutral(name, lin.ctx)));
@@ -1069,9 +1075,8 @@ fn choose_forms(
             }
         } else {
             parametric.push(name.clone());
-            if let Some(v) = fr.aug.effects.iter().find(|(n, _)| n == name) {
-                lib_fits.push(v.clone());
-            }
+            // The fit refitted the earlier library forms and the free parameters with it.
+            last_lib = Some(fr.aug.clone());
             design = param_design;
             if let Some(e) = e {
                 e.form_gains = Some((g_param, g_learned));
@@ -1083,13 +1088,13 @@ fn choose_forms(
     // library forms refitted by the nonlinear fitter with the learned shapes held.
     let mut aug = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
         .unwrap_or_else(|| lin.base.clone());
-    if !parametric.is_empty() {
-        // From each library form's own fit (a joint refit from neutral values would stay at
-        // the piece of the cost where the effects vanish).
-        aug.effects = lib_fits.clone();
+    if let Some(mut lib) = last_lib {
+        // From the last library fit, which fitted the free parameters and every library form
+        // together (a joint refit from neutral values would stay where the effects vanish),
+        // with the learned shapes' heights from the linear fit.
+        lib.learned = aug.learned.clone();
         let all: Vec<usize> = (0..ds.rows.len()).collect();
-        let fr = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]);
-        aug = fr.aug;
+        aug = fitter::fit(&lib, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
     }
     aug.sync_model();
     for (name, sh) in &aug.learned {
@@ -1105,9 +1110,13 @@ fn choose_forms(
 fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
     let ds = lin.ds;
     let mut cv = vec![[0.0; 2]; ds.rows.len()];
-    let fold_of_row: Vec<usize> = (0..ds.rows.len()).map(|i| lin.fold_of_stacked[2 * i]).collect();
+    let fold_of_row: Vec<usize> = (0..ds.rows.len())
+        .map(|i| lin.fold_of_stacked[2 * i])
+        .collect();
     for f in 0..lin.k {
-        let train: Vec<usize> = (0..ds.rows.len()).filter(|&i| fold_of_row[i] != f).collect();
+        let train: Vec<usize> = (0..ds.rows.len())
+            .filter(|&i| fold_of_row[i] != f)
+            .collect();
         if train.len() == ds.rows.len() {
             continue;
         }
