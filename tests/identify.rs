@@ -456,7 +456,7 @@ fn a_prior_with_drift_and_camera_effects_is_fitted_through_the_observed_map() {
         ..Default::default()
     };
     let mut truth = common::perturbed_truth();
-    truth.effects = effects;
+    truth.effects = effects.clone();
     let log = observed_log(&truth);
     // The session lasts about half an hour: the drift is a real part of the signal.
     let t_end = log.rows.last().unwrap().t_s;
@@ -467,7 +467,7 @@ fn a_prior_with_drift_and_camera_effects_is_fitted_through_the_observed_map() {
     };
     // Prior: the paper's base parameters (away from the truth) with the effects as they are.
     let mut prior = Model::paper();
-    prior.effects = effects;
+    prior.effects = effects.clone();
     let id = identify::identify(std::slice::from_ref(&log), &prior, &cfg).unwrap();
     assert!(
         id.steady.auto_fixed.is_empty(),

@@ -32,6 +32,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::field::{FieldAtSwarm, MagnetConfig};
+pub use crate::learned::{LearnedAxis, LearnedMode, LearnedTerm};
 use crate::registry::{Group, Param};
 use crate::steady::SteadyPoint;
 use crate::Model;
@@ -300,7 +301,7 @@ impl CameraBias {
 }
 
 /// Unmodelled effects switched on in the model (absent: off).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Effects {
     /// Step-out of the swarm rotation (rotation reversal / phase lag near f_off).
@@ -321,6 +322,10 @@ pub struct Effects {
     /// Scale, offset or tilt of the measurement.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera_bias: Option<CameraBias>,
+    /// Learned shapes along effects' axes (`magswarm diagnose` writes them where an effect's
+    /// shape on the rig is not its parametric form): see [`crate::learned`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub learned: Vec<LearnedTerm>,
 }
 
 impl Effects {
@@ -334,8 +339,12 @@ impl Effects {
         NAMES.iter().copied().filter(|n| self.is_on(n)).collect()
     }
 
-    /// Whether the named effect is on (false for an unknown name).
+    /// Whether the named effect is on, in its parametric form or as a learned term (false
+    /// for an unknown name).
     pub fn is_on(&self, name: &str) -> bool {
+        if self.learned.iter().any(|t| t.effect == name) {
+            return true;
+        }
         match name {
             "phase_lag" => self.phase_lag.is_some(),
             "cohesion_loss" => self.cohesion_loss.is_some(),
@@ -374,8 +383,9 @@ impl Effects {
         true
     }
 
-    /// Switch the named effect off. Returns false for an unknown name.
+    /// Switch the named effect off (its learned terms too). Returns false for an unknown name.
     pub fn switch_off(&mut self, name: &str) -> bool {
+        self.learned.retain(|t| t.effect != name);
         match name {
             "phase_lag" => self.phase_lag = None,
             "cohesion_loss" => self.cohesion_loss = None,
@@ -388,10 +398,59 @@ impl Effects {
         true
     }
 
-    /// True when an effect acts on the observed radii (drift, camera).
+    /// True when an effect acts on the observed radii (drift, camera, a learned term over
+    /// session time).
     #[inline]
     pub fn observes(&self) -> bool {
-        self.particle_drift.is_some() || self.camera_bias.is_some()
+        self.particle_drift.is_some()
+            || self.camera_bias.is_some()
+            || self.learned.iter().any(|t| t.axis == LearnedAxis::TS)
+    }
+
+    /// Learned corrections over session time at t [s]: per radius, (gain, offset) of
+    /// `r -> gain r + offset`, applied after drift and camera.
+    #[inline]
+    fn learned_time(&self, t: f64) -> ([f64; 2], [f64; 2]) {
+        let (mut g, mut o) = ([1.0, 1.0], [0.0, 0.0]);
+        for term in self.learned.iter().filter(|x| x.axis == LearnedAxis::TS) {
+            let (v, _) = term.value(t);
+            for i in 0..2 {
+                match term.mode {
+                    LearnedMode::Relative => {
+                        g[i] *= 1.0 + v[i];
+                        o[i] *= 1.0 + v[i];
+                    }
+                    _ => o[i] += v[i],
+                }
+            }
+        }
+        (g, o)
+    }
+
+    /// The learned corrections over the time since the last input change: `tau` [s] since
+    /// it, `delta` the step of the observed steady map it made [mm]; added to the observed
+    /// radii (zero when no term runs along that axis).
+    #[inline]
+    pub fn since_change(&self, tau: f64, delta: [f64; 2]) -> [f64; 2] {
+        let mut out = [0.0; 2];
+        for term in self
+            .learned
+            .iter()
+            .filter(|x| x.axis == LearnedAxis::SinceChangeS)
+        {
+            let (v, _) = term.value(tau);
+            for i in 0..2 {
+                out[i] += v[i] * delta[i];
+            }
+        }
+        out
+    }
+
+    /// True when a learned term runs along the time since the last input change.
+    pub fn tracks_changes(&self) -> bool {
+        self.learned
+            .iter()
+            .any(|x| x.axis == LearnedAxis::SinceChangeS)
     }
 
     /// Measurement map at session time t [s]: observed `r_i = gain_i r_i + offset`.
@@ -418,7 +477,11 @@ impl Effects {
             return r;
         }
         let (g, o) = self.observation(t);
-        [g[0] * r[0] + o, g[1] * r[1] + o]
+        let (lg, lo) = self.learned_time(t);
+        [
+            lg[0] * (g[0] * r[0] + o) + lo[0],
+            lg[1] * (g[1] * r[1] + o) + lo[1],
+        ]
     }
 
     /// A steady point as observed at session time t [s] (radii and their Jacobian).
@@ -427,12 +490,13 @@ impl Effects {
             return *sp;
         }
         let (g, o) = self.observation(t);
+        let (lg, lo) = self.learned_time(t);
         let mut out = *sp;
-        out.r1 = g[0] * sp.r1 + o;
-        out.r2 = g[1] * sp.r2 + o;
+        out.r1 = lg[0] * (g[0] * sp.r1 + o) + lo[0];
+        out.r2 = lg[1] * (g[1] * sp.r2 + o) + lo[1];
         for j in 0..2 {
-            out.jac[0][j] = g[0] * sp.jac[0][j];
-            out.jac[1][j] = g[1] * sp.jac[1][j];
+            out.jac[0][j] = lg[0] * g[0] * sp.jac[0][j];
+            out.jac[1][j] = lg[1] * g[1] * sp.jac[1][j];
         }
         out
     }

@@ -31,6 +31,7 @@ pub mod effects;
 pub mod envelope;
 pub mod field;
 pub mod integrate;
+pub mod learned;
 pub mod model_file;
 pub mod params;
 pub mod plant;

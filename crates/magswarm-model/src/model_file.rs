@@ -161,6 +161,11 @@ impl Model {
         if let Err((path, message)) = crate::registry::check_all(self) {
             c.fail(path, message);
         }
+        for (i, t) in self.effects.learned.iter().enumerate() {
+            if let Err(e) = t.validate() {
+                c.fail(&format!("effects.learned[{i}].{}", e.field), e.message);
+            }
+        }
         let m = &self.magnet;
         let e = &self.envelope;
         c.range("envelope.z_min_m", e.z_min_m, -m.radius_m * 0.99, 10.0);

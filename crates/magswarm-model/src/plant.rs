@@ -65,6 +65,9 @@ pub struct Plant {
     /// Slow formation mode of the `formation_lag` effect, per axis (x, dx/dt) [mm, mm/s]:
     /// [x1, v1, x2, v2]. Unused (and kept on the map) when the effect is off.
     form: [f64; 4],
+    /// The last input change for learned terms over the time since it: [time [s], step of
+    /// the observed steady map r1, r2 [mm]] (a zero step before the first change).
+    change: [f64; 3],
 }
 
 /// Everything a [`Plant`] carries besides its model: enough to rebuild it bit-identically
@@ -88,6 +91,10 @@ pub struct PlantSnapshot {
     /// Slow formation mode of the `formation_lag` effect [x1, v1, x2, v2] (mm, mm/s).
     #[serde(default)]
     pub form: [f64; 4],
+    /// The last input change [time s, step r1 mm, step r2 mm] for learned terms over the time
+    /// since it (absent in a state written before them: no change).
+    #[serde(default)]
+    pub change: [f64; 3],
 }
 
 /// What the plant reports at one instant.
@@ -115,6 +122,7 @@ impl Plant {
             stepper: Stepper::default(),
             tol: Tolerances::default(),
             form: [r[0], 0.0, r[1], 0.0],
+            change: [0.0; 3],
         }
     }
 
@@ -149,7 +157,16 @@ impl Plant {
     /// read with its rules); the coefficients of (4) are recomputed only if they differ.
     pub fn set_inputs(&mut self, z_m: f64, omega: f64) {
         if z_m != self.terms.z_m || omega != self.terms.omega {
+            let before = self.terms.steady;
             self.terms = InputTerms::new(&self.model, z_m, omega);
+            let fx = &self.model.effects;
+            if fx.tracks_changes() {
+                // The step of the observed steady map this change makes, for the learned
+                // terms over the time since it.
+                let a = fx.observe_steady(&before, self.t);
+                let b = fx.observe_steady(&self.terms.steady, self.t);
+                self.change = [self.t, b.r1 - a.r1, b.r2 - a.r2];
+            }
         }
     }
 
@@ -201,6 +218,7 @@ impl Plant {
             tol: [self.tol.rtol, self.tol.atol, self.tol.h_max],
             max_steps: self.tol.max_steps,
             form: self.form,
+            change: self.change,
         }
     }
 
@@ -211,6 +229,7 @@ impl Plant {
         p.r = s.r;
         p.t = s.t;
         p.form = s.form;
+        p.change = s.change;
         p.stepper = Stepper {
             h_next: s.h_next,
             steps: s.steps[0],
@@ -301,7 +320,11 @@ impl Plant {
                 steady: self.terms.steady,
             };
         }
-        let r = fx.observe(self.footprint(), self.t);
+        let mut r = fx.observe(self.footprint(), self.t);
+        if fx.tracks_changes() {
+            let c = fx.since_change(self.t - self.change[0], [self.change[1], self.change[2]]);
+            r = [r[0] + c[0], r[1] + c[1]];
+        }
         PlantOutputs {
             r1: r[0],
             r2: r[1],

@@ -67,6 +67,104 @@ fn pow_d(x: f64, e: f64) -> (f64, f64) {
 
 /// Evaluate (5)-(7) and their Jacobian at (z_m [m], omega [rad/s]).
 pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
+    if model.effects.learned.iter().any(|t| t.on_steady_map()) {
+        return with_learned(model, z_m, omega);
+    }
+    evaluate_core(model, z_m, omega)
+}
+
+/// The steady map with the learned terms that act on it (`effects.learned` along f or z_m):
+/// a rate deficit re-evaluates the map at the slowed rotation, then added and relative
+/// corrections follow in list order; the Jacobian by the chain rule.
+fn with_learned(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
+    use crate::learned::{LearnedAxis, LearnedMode, LearnedTerm};
+    let tau = std::f64::consts::TAU;
+    let sign = if omega < 0.0 { -1.0 } else { 1.0 };
+    // The axis variable of a term and its derivatives (d/dz_m [1/m], d/domega [s/rad]), and
+    // the amplitude (B/B_ref)^a with d/dz_m, at a field point.
+    let arg = |t: &LearnedTerm, f_hz: f64, fl: &FieldAtSwarm| -> (f64, f64, f64, f64, f64) {
+        let bn = (fl.b / model.steady.B_ref).max(1e-300);
+        let dlnb = fl.db_dz / fl.b;
+        let amp = bn.powf(t.amplitude_exponent);
+        let damp = t.amplitude_exponent * amp * dlnb;
+        match t.axis {
+            LearnedAxis::FHz => {
+                let sc = bn.powf(-t.field_exponent);
+                let x = f_hz * sc;
+                (x, -t.field_exponent * x * dlnb, sign * sc / tau, amp, damp)
+            }
+            _ => (z_m * 1e3, 1e3, 0.0, amp, damp),
+        }
+    };
+    let steady_terms = || model.effects.learned.iter().filter(|t| t.on_steady_map());
+    // Rate deficits first: the map at f - deficit.
+    let f_hz = omega.abs() / tau;
+    let field0 = match &model.effects.centroid_offset {
+        None => model.magnet.at(z_m),
+        Some(c) => c.magnet(&model.magnet).at(z_m),
+    };
+    let (mut def, mut ddef_dz, mut ddef_dw) = (0.0, 0.0, 0.0);
+    for t in steady_terms().filter(|t| t.mode == LearnedMode::RateHz) {
+        let (x, dxz, dxw, amp, damp) = arg(t, f_hz, &field0);
+        let (v, s) = t.value(x);
+        def += v[0] * amp;
+        ddef_dz += s[0] * dxz * amp + v[0] * damp;
+        ddef_dw += s[0] * dxw * amp;
+    }
+    let mut sp = if def != 0.0 || ddef_dz != 0.0 || ddef_dw != 0.0 {
+        let f_e = (f_hz - def).max(1e-6);
+        let clamped = f_hz - def < 1e-6;
+        let omega_e = sign * tau * f_e;
+        let mut sp = evaluate_core(model, z_m, omega_e);
+        // d omega_e / d z_m and d omega_e / d omega.
+        let (dwe_dz, dwe_dw) = if clamped {
+            (0.0, 0.0)
+        } else {
+            (-sign * tau * ddef_dz, 1.0 - sign * tau * ddef_dw)
+        };
+        for i in 0..2 {
+            let dr_dw = sp.jac[i][1];
+            sp.jac[i][0] += dr_dw * dwe_dz;
+            sp.jac[i][1] = dr_dw * dwe_dw;
+            let ds_dw = sp.ds[i][1];
+            sp.ds[i][0] += ds_dw * dwe_dz;
+            sp.ds[i][1] = ds_dw * dwe_dw;
+        }
+        sp
+    } else {
+        evaluate_core(model, z_m, omega)
+    };
+    for t in steady_terms().filter(|t| t.mode != LearnedMode::RateHz) {
+        let (x, dxz, dxw, amp, damp) = arg(t, f_hz, &sp.field);
+        let (v, s) = t.value(x);
+        let mut r = [sp.r1, sp.r2];
+        for i in 0..2 {
+            let c = v[i] * amp;
+            let dc = [s[i] * dxz * amp + v[i] * damp, s[i] * dxw * amp];
+            match t.mode {
+                LearnedMode::Relative => {
+                    let g = 1.0 + c;
+                    for j in 0..2 {
+                        sp.jac[i][j] = sp.jac[i][j] * g + r[i] * dc[j];
+                    }
+                    r[i] *= g;
+                }
+                _ => {
+                    for j in 0..2 {
+                        sp.jac[i][j] += dc[j];
+                    }
+                    r[i] += c;
+                }
+            }
+        }
+        sp.r1 = r[0];
+        sp.r2 = r[1];
+    }
+    sp
+}
+
+/// The steady map (5)-(7) with the parametric effects (no learned terms).
+fn evaluate_core(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     let p = &model.steady;
     let c = &model.conventions;
     let mut validity = model.envelope.classify(z_m, omega);

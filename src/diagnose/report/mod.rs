@@ -68,7 +68,7 @@ fn param_strings(name: &str, m: &magswarm_model::Model) -> Vec<String> {
 /// The augmented model's own model file: the baseline's refitted parameters with every
 /// accepted effect switched on at its fitted values (runs as is in the FMU and `predict`).
 fn augmented_model(d: &Diagnosis) -> magswarm_model::Model {
-    let mut m = d.attr.augmented.full.aug.synced();
+    let mut m = d.attr.augmented.full.aug.model_file();
     m.name = format!("{}-augmented", d.ident.model.name);
     m.provenance = format!(
         "magswarm diagnose {} from {}: baseline refitted with the accepted effects [{}] switched on",
