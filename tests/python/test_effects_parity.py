@@ -29,6 +29,21 @@ EFFECTS = {
     "particle_drift": {"rate_per_h": -0.5},
     "centroid_offset": {"offset_mm": 1.0},
     "camera_bias": {"scale": 1.03, "offset_mm": 0.1, "tilt_deg": 12.0},
+    # Learned terms (what `magswarm diagnose` writes where an effect's shape is not its
+    # library form): one along every axis, every mode.
+    "learned": [
+        {"effect": "phase_lag", "axis": "f_hz", "mode": "rate_hz", "knots": [3.0, 5.0, 7.0, 9.0],
+         "r1": [0.0, 0.3, 0.8, 1.2], "r2": [0.0, 0.3, 0.8, 1.2], "field_exponent": 0.5},
+        {"effect": "phase_lag", "axis": "f_hz", "mode": "add_mm", "knots": [4.0, 6.0, 8.0],
+         "r1": [0.0, 0.4, 0.1], "r2": [0.0, 0.8, 0.2], "amplitude_exponent": 1.0},
+        {"effect": "cohesion_loss", "axis": "z_m_mm", "mode": "relative", "knots": [10.0, 15.0, 20.0, 25.0],
+         "r1": [0.0, 0.02, 0.06, 0.1], "r2": [0.0, 0.03, 0.08, 0.15]},
+        {"effect": "particle_drift", "axis": "t_s", "mode": "add_mm", "knots": [0.0, 10.0, 20.0, 40.0],
+         "r1": [0.0, -0.1, -0.3, -0.3], "r2": [0.0, -0.2, -0.4, -0.5]},
+        {"effect": "formation_lag", "axis": "since_change_s", "mode": "step_fraction",
+         "knots": [0.0, 2.0, 5.0, 10.0], "r1": [-0.8, -0.3, 0.1, 0.0], "r2": [-0.6, -0.2, 0.15, 0.0],
+         "sd_r1": [0.05, 0.05, 0.05, 0.05], "sd_r2": [0.05, 0.05, 0.05, 0.05]},
+    ],
 }
 
 # (duration_s, z_mm, f_hz): rows every 0.5 s.
