@@ -97,7 +97,19 @@ fn model_file_with_every_effect(dir: &Path) -> PathBuf {
         "formation_lag":   {"share": 0.4, "tau_s": 8.0, "zeta": 0.5},
         "particle_drift":  {"rate_per_h": -0.1},
         "centroid_offset": {"offset_mm": 2.0},
-        "camera_bias":     {"scale": 1.03, "offset_mm": 0.1, "tilt_deg": 10.0}
+        "camera_bias":     {"scale": 1.03, "offset_mm": 0.1, "tilt_deg": 10.0},
+        // Learned terms on the steady map and over session time (the outputs' derivatives
+        // with respect to the inputs and the state must carry them too).
+        "learned": [
+            {"effect": "phase_lag", "axis": "f_hz", "mode": "rate_hz", "knots": [1.0, 4.0, 8.0],
+             "r1": [0.0, 0.3, 0.9], "r2": [0.0, 0.3, 0.9], "field_exponent": 0.5},
+            {"effect": "phase_lag", "axis": "f_hz", "mode": "add_mm", "knots": [1.0, 4.0, 8.0],
+             "r1": [0.0, 0.2, 0.1], "r2": [0.1, 0.5, 0.2], "amplitude_exponent": 1.0},
+            {"effect": "cohesion_loss", "axis": "z_m_mm", "mode": "relative", "knots": [5.0, 15.0, 25.0],
+             "r1": [0.0, 0.05, 0.2], "r2": [0.0, 0.1, 0.3]},
+            {"effect": "particle_drift", "axis": "t_s", "mode": "relative", "knots": [0.0, 3600.0],
+             "r1": [0.0, -0.05], "r2": [0.0, -0.08]}
+        ]
     });
     let path = dir.join("every_effect.json");
     std::fs::write(&path, v.to_string()).unwrap();

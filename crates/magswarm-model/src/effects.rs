@@ -453,9 +453,10 @@ impl Effects {
             .any(|x| x.axis == LearnedAxis::SinceChangeS)
     }
 
-    /// Measurement map at session time t [s]: observed `r_i = gain_i r_i + offset`.
+    /// Measurement map at session time t [s]: observed `r_i = gain_i r_i + offset_i` (drift,
+    /// camera, then the learned terms over session time).
     #[inline]
-    pub fn observation(&self, t: f64) -> ([f64; 2], f64) {
+    pub fn observation(&self, t: f64) -> ([f64; 2], [f64; 2]) {
         let mut g = [1.0, 1.0];
         let mut o = 0.0;
         if let Some(d) = self.particle_drift {
@@ -467,7 +468,11 @@ impl Effects {
             g = [g[0] * c.scale, g[1] * c.scale * ct];
             o = c.offset_mm;
         }
-        (g, o)
+        let (lg, lo) = self.learned_time(t);
+        (
+            [lg[0] * g[0], lg[1] * g[1]],
+            [lg[0] * o + lo[0], lg[1] * o + lo[1]],
+        )
     }
 
     /// Observed radii [mm] of physical radii `r` [mm] at session time t [s].
@@ -477,11 +482,7 @@ impl Effects {
             return r;
         }
         let (g, o) = self.observation(t);
-        let (lg, lo) = self.learned_time(t);
-        [
-            lg[0] * (g[0] * r[0] + o) + lo[0],
-            lg[1] * (g[1] * r[1] + o) + lo[1],
-        ]
+        [g[0] * r[0] + o[0], g[1] * r[1] + o[1]]
     }
 
     /// A steady point as observed at session time t [s] (radii and their Jacobian).
@@ -490,13 +491,12 @@ impl Effects {
             return *sp;
         }
         let (g, o) = self.observation(t);
-        let (lg, lo) = self.learned_time(t);
         let mut out = *sp;
-        out.r1 = lg[0] * (g[0] * sp.r1 + o) + lo[0];
-        out.r2 = lg[1] * (g[1] * sp.r2 + o) + lo[1];
+        out.r1 = g[0] * sp.r1 + o[0];
+        out.r2 = g[1] * sp.r2 + o[1];
         for j in 0..2 {
-            out.jac[0][j] = lg[0] * g[0] * sp.jac[0][j];
-            out.jac[1][j] = lg[1] * g[1] * sp.jac[1][j];
+            out.jac[0][j] = g[0] * sp.jac[0][j];
+            out.jac[1][j] = g[1] * sp.jac[1][j];
         }
         out
     }

@@ -138,7 +138,10 @@ impl LearnedTerm {
         }
         for (i, x) in self.knots.iter().enumerate() {
             if !x.is_finite() {
-                return Err(err("knots", format!("knot {i} is {x}, not a finite number")));
+                return Err(err(
+                    "knots",
+                    format!("knot {i} is {x}, not a finite number"),
+                ));
             }
             if i > 0 && *x <= self.knots[i - 1] {
                 return Err(err(
@@ -178,7 +181,10 @@ impl LearnedTerm {
                 "step_fraction goes with the axis since_change_s, and since_change_s with step_fraction only".into(),
             ));
         }
-        if self.mode == LearnedMode::RateHz && self.axis != LearnedAxis::FHz && self.axis != LearnedAxis::ZmMm {
+        if self.mode == LearnedMode::RateHz
+            && self.axis != LearnedAxis::FHz
+            && self.axis != LearnedAxis::ZmMm
+        {
             return Err(err(
                 "mode",
                 "rate_hz acts on the steady map: its axis must be f_hz or z_m_mm".into(),
@@ -269,7 +275,10 @@ mod tests {
         t.knots[2] = 18.5;
         let e = t.validate().unwrap_err();
         assert_eq!(e.field, "knots");
-        assert!(e.message.contains("not strictly increasing at index 2"), "{e}");
+        assert!(
+            e.message.contains("not strictly increasing at index 2"),
+            "{e}"
+        );
         let mut t = term();
         t.r2.pop();
         assert_eq!(t.validate().unwrap_err().field, "r2");

@@ -4,7 +4,13 @@
 use magswarm_model::learned::{LearnedAxis, LearnedMode, LearnedTerm};
 use magswarm_model::{hz_to_rad_s as hz, steady, Model, Plant};
 
-fn term(axis: LearnedAxis, mode: LearnedMode, knots: &[f64], r1: &[f64], r2: &[f64]) -> LearnedTerm {
+fn term(
+    axis: LearnedAxis,
+    mode: LearnedMode,
+    knots: &[f64],
+    r1: &[f64],
+    r2: &[f64],
+) -> LearnedTerm {
     LearnedTerm {
         effect: match axis {
             LearnedAxis::FHz => "phase_lag",
@@ -76,7 +82,12 @@ fn a_millimetre_over_z_moves_the_steady_map_and_the_ode_settles_there() {
     let a = run(&m, &[(120.0, 13.5, 5.0)]);
     let b = run(&Model::paper(), &[(120.0, 13.5, 5.0)]);
     let last = a.len() - 1;
-    assert!((a[last][0] - b[last][0] - 1.0).abs() < 1e-3, "{:?} {:?}", a[last], b[last]);
+    assert!(
+        (a[last][0] - b[last][0] - 1.0).abs() < 1e-3,
+        "{:?} {:?}",
+        a[last],
+        b[last]
+    );
 }
 
 #[test]
@@ -96,9 +107,27 @@ fn a_rate_deficit_is_the_map_at_the_slower_rotation() {
 #[test]
 fn the_steady_jacobian_matches_central_differences_with_every_steady_term() {
     let mut terms = vec![
-        term(LearnedAxis::FHz, LearnedMode::RateHz, &[2.0, 5.0, 9.0], &[0.0, 0.4, 1.0], &[0.0, 0.4, 1.0]),
-        term(LearnedAxis::FHz, LearnedMode::AddMm, &[2.0, 5.0, 9.0], &[0.0, 0.3, 0.1], &[0.1, 0.6, 0.2]),
-        term(LearnedAxis::ZmMm, LearnedMode::Relative, &[5.0, 15.0, 25.0], &[0.0, 0.05, 0.2], &[0.0, 0.1, 0.3]),
+        term(
+            LearnedAxis::FHz,
+            LearnedMode::RateHz,
+            &[2.0, 5.0, 9.0],
+            &[0.0, 0.4, 1.0],
+            &[0.0, 0.4, 1.0],
+        ),
+        term(
+            LearnedAxis::FHz,
+            LearnedMode::AddMm,
+            &[2.0, 5.0, 9.0],
+            &[0.0, 0.3, 0.1],
+            &[0.1, 0.6, 0.2],
+        ),
+        term(
+            LearnedAxis::ZmMm,
+            LearnedMode::Relative,
+            &[5.0, 15.0, 25.0],
+            &[0.0, 0.05, 0.2],
+            &[0.0, 0.1, 0.3],
+        ),
     ];
     terms[0].field_exponent = 0.7;
     terms[1].amplitude_exponent = 1.0;
@@ -110,8 +139,14 @@ fn the_steady_jacobian_matches_central_differences_with_every_steady_term() {
         let dz = |s: f64| steady::evaluate(&m, z + s * hz_, hz(f));
         let dw = |s: f64| steady::evaluate(&m, z, hz(f) + s * hw);
         let fd = [
-            [(dz(1.0).r1 - dz(-1.0).r1) / (2.0 * hz_), (dw(1.0).r1 - dw(-1.0).r1) / (2.0 * hw)],
-            [(dz(1.0).r2 - dz(-1.0).r2) / (2.0 * hz_), (dw(1.0).r2 - dw(-1.0).r2) / (2.0 * hw)],
+            [
+                (dz(1.0).r1 - dz(-1.0).r1) / (2.0 * hz_),
+                (dw(1.0).r1 - dw(-1.0).r1) / (2.0 * hw),
+            ],
+            [
+                (dz(1.0).r2 - dz(-1.0).r2) / (2.0 * hz_),
+                (dw(1.0).r2 - dw(-1.0).r2) / (2.0 * hw),
+            ],
         ];
         for i in 0..2 {
             for j in 0..2 {
@@ -140,7 +175,12 @@ fn a_shape_over_session_time_acts_only_as_time_passes() {
     let b = run(&Model::paper(), &SCHED);
     assert!((a[0][0] - b[0][0]).abs() < 0.01 * b[0][0]);
     let last = a.len() - 1;
-    assert!((a[last][0] / b[last][0] - 0.9).abs() < 1e-9, "{:?} {:?}", a[last], b[last]);
+    assert!(
+        (a[last][0] / b[last][0] - 0.9).abs() < 1e-9,
+        "{:?} {:?}",
+        a[last],
+        b[last]
+    );
 }
 
 #[test]
@@ -160,7 +200,10 @@ fn a_step_fraction_holds_the_response_back_after_each_change_then_lets_go() {
     // step; 15 s after it, not at all.
     let step = b[99][1] - b[39][1];
     let lag = b[43][1] - a[43][1];
-    assert!((lag - 0.8 * step).abs() < 0.05 * step.abs(), "lag {lag} step {step}");
+    assert!(
+        (lag - 0.8 * step).abs() < 0.05 * step.abs(),
+        "lag {lag} step {step}"
+    );
     assert!((a[69][1] - b[69][1]).abs() < 1e-12);
 }
 
@@ -191,8 +234,20 @@ fn a_running_transient_survives_a_state_snapshot_bit_for_bit() {
 #[test]
 fn model_files_with_bad_learned_terms_are_refused_naming_the_field() {
     let mut m = with(vec![
-        term(LearnedAxis::ZmMm, LearnedMode::AddMm, &[5.0, 10.0], &[0.0, 1.0], &[0.0, 1.0]),
-        term(LearnedAxis::TS, LearnedMode::AddMm, &[0.0, 10.0, 10.0], &[0.0, 1.0, 1.0], &[0.0, 1.0, 1.0]),
+        term(
+            LearnedAxis::ZmMm,
+            LearnedMode::AddMm,
+            &[5.0, 10.0],
+            &[0.0, 1.0],
+            &[0.0, 1.0],
+        ),
+        term(
+            LearnedAxis::TS,
+            LearnedMode::AddMm,
+            &[0.0, 10.0, 10.0],
+            &[0.0, 1.0, 1.0],
+            &[0.0, 1.0, 1.0],
+        ),
     ]);
     m.schema = magswarm_model::SCHEMA.into();
     let e = m.validate().unwrap_err();
