@@ -234,9 +234,42 @@ impl<'a> Linear<'a> {
         // A small ridge on the unit-norm columns: a fold's refit must not run along the nearly
         // unidentified combinations of the steady parameters (exponents against gains), where
         // the linearisation means nothing; well-determined directions are barely shrunk.
-        let p = free.len();
+        // The baseline's own transient after each change (its ODE (4) replay less its map)
+        // may be off in size and in time scale on another rig: identify fitted those time
+        // scales, so their directions belong to the baseline too (per axis: the transient
+        // scaled, and stretched in time, `since d/dsince`). A formation effect must beat what
+        // refitting the baseline's dynamics would do.
+        let mut extra = DMatrix::zeros(2 * n, 4);
+        for v in &ds.visits {
+            let rows = &v.rows;
+            for (k, &i) in rows.iter().enumerate() {
+                let (lo, hi) = (rows[k.saturating_sub(1)], rows[(k + 1).min(rows.len() - 1)]);
+                let dt = ds.rows[hi].since - ds.rows[lo].since;
+                for ax in 0..2 {
+                    let tr = ds.rows[i].trans[ax];
+                    extra[(2 * i + ax, ax)] = w[ax] * tr;
+                    if dt > 0.0 {
+                        let d = (ds.rows[hi].trans[ax] - ds.rows[lo].trans[ax]) / dt;
+                        extra[(2 * i + ax, 2 + ax)] = w[ax] * ds.rows[i].since * d;
+                    }
+                }
+            }
+        }
+        let mut keep: Vec<usize> = Vec::new();
+        for c in 0..4 {
+            let nrm = extra.column(c).norm();
+            if nrm > 1e-9 && nrm.is_finite() {
+                extra.column_mut(c).scale_mut(1.0 / nrm);
+                keep.push(c);
+            }
+        }
+        let extra = extra.select_columns(&keep);
+        let p = free.len() + extra.ncols();
+        let mut full = DMatrix::zeros(2 * n, p);
+        full.columns_mut(0, free.len()).copy_from(&a);
+        full.columns_mut(free.len(), extra.ncols()).copy_from(&extra);
         let jac = Design {
-            a,
+            a: full,
             pen: DMatrix::identity(p, p) * JAC_RIDGE,
         };
         let ln_b = ds
@@ -673,7 +706,7 @@ fn linear_model(lin: &Linear, d: &Design, learned: &[(String, Family)]) -> Optio
             params::set(&mut aug.model, f.name(), v);
         }
     }
-    let mut at = lin.free.len();
+    let mut at = lin.jac.cols();
     for (name, fam) in learned {
         let (cols, _) = shapes::columns(fam, &lin.rc);
         let q = cols.ncols();
