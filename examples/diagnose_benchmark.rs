@@ -2,7 +2,7 @@
 //! scenario's training log diagnosed with its withheld log, scored against its truth.
 //!
 //! ```sh
-//! cargo run --release --example diagnose_benchmark -- [--subset N] [--seed S] [--out DIR] [--write-docs]
+//! cargo run --release --example diagnose_benchmark -- [--subset N] [--only CATEGORY] [--seed S] [--out DIR] [--write-docs]
 //! ```
 //!
 //! Verdicts: **right** (the true effect named first, both in a two-effect log; a reported
@@ -14,11 +14,15 @@
 //! DIR/shrink.png; with `--write-docs` the summary replaces the benchmark section of
 //! docs/diagnose.md.
 
-use magswarm::diagnose::{self, gap::Kind, Config, Diagnosis};
+use magswarm::diagnose::{self, Config};
+
+#[path = "../tests/common/bench_score.rs"]
+mod bench_score;
+use bench_score::score;
 use magswarm::log::Log;
 use magswarm::model::Model;
 use magswarm::plot::{self, Labels, Series};
-use magswarm_scenarios::{scenarios, Scenario, Shape};
+use magswarm_scenarios::{scenarios, Scenario};
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -32,76 +36,6 @@ struct Outcome {
     p: f64,
     shrink: Option<f64>,
     secs: f64,
-}
-
-fn overlaps(r: (f64, f64), s: (f64, f64)) -> bool {
-    r.0 <= s.1 + 1e-9 && s.0 <= r.1 + 1e-9
-}
-
-/// A reported region where the shape acts.
-fn located(d: &Diagnosis, shape: Shape) -> bool {
-    let regions = d
-        .regions
-        .iter()
-        .chain(d.unexplained.iter().map(|u| &u.region));
-    let kinds: Vec<Kind> = regions.clone().map(|r| r.kind).collect();
-    match shape.effect() {
-        "particle_drift" => kinds.contains(&Kind::Drift) || !d.regions.is_empty(),
-        "formation_lag" => kinds.contains(&Kind::Formation) || !d.regions.is_empty(),
-        _ => match shape.region() {
-            Some((z, f)) => regions
-                .filter(|r| matches!(r.kind, Kind::Inputs | Kind::Pattern))
-                .any(|r| overlaps(r.z, z) && overlaps(r.f, f)),
-            None => !d.regions.is_empty(),
-        },
-    }
-}
-
-fn score(sc: &Scenario, d: &Diagnosis) -> &'static str {
-    let named = &d.attr.accepted;
-    let exp = sc.expected();
-    if exp.is_empty() || exp == ["camera_bias"] || exp == ["camera_bias", "camera_bias"] {
-        return if named.is_empty() { "right" } else { "wrong" };
-    }
-    if exp == ["anomaly"] {
-        let shape = sc.truths[0].shape;
-        if !named.is_empty() {
-            return "wrong";
-        }
-        let at = shape.region().map(|(z, f)| {
-            d.unexplained
-                .iter()
-                .any(|u| overlaps(u.region.z, z) && overlaps(u.region.f, f))
-        });
-        return match (d.unexplained.is_empty(), at) {
-            (true, _) => "nothing",
-            (false, Some(true)) => "right",
-            _ => "unexplained",
-        };
-    }
-    let name_ok = if exp.len() == 1 {
-        named.first().map(String::as_str) == Some(exp[0])
-    } else {
-        exp.iter().all(|e| named.iter().any(|n| n == e))
-    };
-    if !name_ok {
-        return if named.is_empty() {
-            if d.unexplained.is_empty() {
-                "nothing"
-            } else {
-                "unexplained"
-            }
-        } else {
-            "wrong"
-        };
-    }
-    let loc = sc.truths.iter().all(|t| located(d, t.shape));
-    let shrink = d.excess_removed()[2].unwrap_or(1.0);
-    if loc && shrink >= 0.5 {
-        "right"
-    } else {
-        "right name"
-    }
 }
 
 fn run(sc: &Scenario, cfg: &Config) -> Outcome {
@@ -146,18 +80,28 @@ fn category(sc: &Scenario) -> String {
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);
-    let (mut subset, mut seed, mut out, mut docs) = (None, 1u64, PathBuf::from("target/diagnose-benchmark"), false);
+    let (mut subset, mut seed, mut out, mut docs) = (
+        None,
+        1u64,
+        PathBuf::from("target/diagnose-benchmark"),
+        false,
+    );
+    let mut only: Option<String> = None;
     while let Some(a) = args.next() {
         match a.as_str() {
             "--subset" => subset = Some(args.next().unwrap_or_default().parse::<usize>()?),
             "--seed" => seed = args.next().unwrap_or_default().parse()?,
             "--out" => out = PathBuf::from(args.next().unwrap_or_default()),
             "--write-docs" => docs = true,
-            other => anyhow::bail!("unknown argument {other:?} (--subset N, --seed S, --out DIR, --write-docs)"),
+            "--only" => only = args.next(),
+            other => anyhow::bail!("unknown argument {other:?} (--subset N, --only CATEGORY, --seed S, --out DIR, --write-docs)"),
         }
     }
     std::fs::create_dir_all(&out)?;
     let mut all = scenarios(seed);
+    if let Some(c) = &only {
+        all.retain(|s| &category(s) == c);
+    }
     if let Some(n) = subset {
         let step = (all.len() / n.max(1)).max(1);
         all = all.into_iter().step_by(step).take(n).collect();
@@ -196,7 +140,14 @@ fn main() -> anyhow::Result<()> {
     }
     std::fs::write(out.join("results.csv"), csv)?;
     // Confusion matrix: category x verdict.
-    let verdicts = ["right", "right name", "wrong", "nothing", "unexplained", "error"];
+    let verdicts = [
+        "right",
+        "right name",
+        "wrong",
+        "nothing",
+        "unexplained",
+        "error",
+    ];
     let cats = [
         "phase_lag",
         "cohesion_loss",
@@ -239,20 +190,41 @@ fn main() -> anyhow::Result<()> {
         !e.is_empty() && !e.contains(&"anomaly") && !e.contains(&"camera_bias")
     };
     let strong = |o: &Outcome| is_effect(o) && o.sc.truths.iter().all(|t| t.strength >= 2.0);
-    let (a, b) = share(&strong, &|o| o.verdict == "right" || o.verdict == "right name");
+    let (a, b) = share(&strong, &|o| {
+        o.verdict == "right" || o.verdict == "right name"
+    });
     let (a2, b2) = share(&strong, &|o| o.verdict == "right");
     let (a1, b1) = share(&|o| is_effect(o) && o.sc.truths[0].strength < 2.0, &|o| {
         o.verdict == "right" || o.verdict == "right name"
     });
     let (n, nn) = share(&|o| o.sc.truths.is_empty(), &|o| !o.named.is_empty());
-    let (u, uu) = share(&|o| o.sc.expected() == ["anomaly"], &|o| o.verdict == "right");
+    let (u, uu) = share(&|o| o.sc.expected() == ["anomaly"], &|o| {
+        o.verdict == "right"
+    });
     let pct = |a: usize, b: usize| 100.0 * a as f64 / b.max(1) as f64;
     let _ = writeln!(md, "\n| measure | value |\n|---|---|");
-    let _ = writeln!(md, "| right name at strength >= 2x the visit noise | {a} / {b} ({:.0} %) |", pct(a, b));
+    let _ = writeln!(
+        md,
+        "| right name at strength >= 2x the visit noise | {a} / {b} ({:.0} %) |",
+        pct(a, b)
+    );
     let _ = writeln!(md, "| fully right (name, region, >= 50 % of the withheld excess removed) at strength >= 2x | {a2} / {b2} ({:.0} %) |", pct(a2, b2));
-    let _ = writeln!(md, "| right name at strength 1x | {a1} / {b1} ({:.0} %) |", pct(a1, b1));
-    let _ = writeln!(md, "| null logs with a name (false claims, alpha = {}) | {n} / {nn} ({:.0} %) |", cfg.alpha, pct(n, nn));
-    let _ = writeln!(md, "| anomalies reported unexplained at their place | {u} / {uu} ({:.0} %) |", pct(u, uu));
+    let _ = writeln!(
+        md,
+        "| right name at strength 1x | {a1} / {b1} ({:.0} %) |",
+        pct(a1, b1)
+    );
+    let _ = writeln!(
+        md,
+        "| null logs with a name (false claims, alpha = {}) | {n} / {nn} ({:.0} %) |",
+        cfg.alpha,
+        pct(n, nn)
+    );
+    let _ = writeln!(
+        md,
+        "| anomalies reported unexplained at their place | {u} / {uu} ({:.0} %) |",
+        pct(u, uu)
+    );
     // Shrink distribution.
     let mut sh: Vec<f64> = outcomes
         .iter()
@@ -261,7 +233,11 @@ fn main() -> anyhow::Result<()> {
         .map(|s| 100.0 * s)
         .collect();
     sh.sort_by(|x, y| x.total_cmp(y));
-    let q = |p: f64| sh.get(((sh.len().max(1) - 1) as f64 * p).round() as usize).copied().unwrap_or(f64::NAN);
+    let q = |p: f64| {
+        sh.get(((sh.len().max(1) - 1) as f64 * p).round() as usize)
+            .copied()
+            .unwrap_or(f64::NAN)
+    };
     let _ = writeln!(
         md,
         "\nShare of the withheld excess over the floor removed (effect logs with a name, {} logs): 10 % {:.0} %, 25 % {:.0} %, median {:.0} %, 75 % {:.0} %, 90 % {:.0} %.\n",
@@ -304,14 +280,12 @@ fn main() -> anyhow::Result<()> {
         let path = PathBuf::from("docs/diagnose.md");
         let text = std::fs::read_to_string(&path)?;
         let (a, b) = (
-            text.find("<!-- benchmark:start -->").ok_or_else(|| anyhow::anyhow!("no benchmark:start marker in docs/diagnose.md"))?,
-            text.find("<!-- benchmark:end -->").ok_or_else(|| anyhow::anyhow!("no benchmark:end marker in docs/diagnose.md"))?,
+            text.find("<!-- benchmark:start -->")
+                .ok_or_else(|| anyhow::anyhow!("no benchmark:start marker in docs/diagnose.md"))?,
+            text.find("<!-- benchmark:end -->")
+                .ok_or_else(|| anyhow::anyhow!("no benchmark:end marker in docs/diagnose.md"))?,
         );
-        let new = format!(
-            "{}<!-- benchmark:start -->\n{md}{}",
-            &text[..a],
-            &text[b..]
-        );
+        let new = format!("{}<!-- benchmark:start -->\n{md}{}", &text[..a], &text[b..]);
         std::fs::write(&path, new)?;
         if out.join("shrink.png").exists() {
             std::fs::copy(out.join("shrink.png"), "docs/diagnose-benchmark-shrink.png")?;

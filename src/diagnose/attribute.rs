@@ -239,7 +239,39 @@ impl<'a> Linear<'a> {
         // scales, so their directions belong to the baseline too (per axis: the transient
         // scaled, and stretched in time, `since d/dsince`). A formation effect must beat what
         // refitting the baseline's dynamics would do.
-        let mut extra = DMatrix::zeros(2 * n, 4);
+        // And a first-order approach of any size at time constants around the baseline's own
+        // (half, equal, twice): another rig's fast formation may follow another law than ODE
+        // (4) without being a formation effect.
+        let tau_b = {
+            let mut t: Vec<f64> = ds
+                .rows
+                .iter()
+                .flat_map(|r| r.frac.iter().map(move |&f| (f, r.since)))
+                .filter(|(f, s)| f.is_finite() && *f > 0.05 && *f < 0.95 && *s > 0.0)
+                .map(|(f, s)| -s / f.ln())
+                .collect();
+            t.sort_by(|a, b| a.total_cmp(b));
+            t.get(t.len() / 2).copied().unwrap_or(2.0).clamp(0.3, 5.0)
+        };
+        let step = |i: usize| -> [f64; 2] {
+            match ds.visits[ds.rows[i].visit].prev {
+                Some(pv) => {
+                    let (a, b) = (map0[ds.rows[i].point], map0[ds.visits[pv].point]);
+                    [a[0] - b[0], a[1] - b[1]]
+                }
+                None => [0.0; 2],
+            }
+        };
+        let mut extra = DMatrix::zeros(2 * n, 10);
+        for i in 0..n {
+            let st = step(i);
+            for (k, c) in [0.5, 1.0, 1.5].into_iter().enumerate() {
+                let e = (-ds.rows[i].since / (c * tau_b)).exp();
+                for ax in 0..2 {
+                    extra[(2 * i + ax, 4 + 2 * k + ax)] = w[ax] * st[ax] * e;
+                }
+            }
+        }
         for v in &ds.visits {
             let rows = &v.rows;
             for (k, &i) in rows.iter().enumerate() {
@@ -256,7 +288,7 @@ impl<'a> Linear<'a> {
             }
         }
         let mut keep: Vec<usize> = Vec::new();
-        for c in 0..4 {
+        for c in 0..10 {
             let nrm = extra.column(c).norm();
             if nrm > 1e-9 && nrm.is_finite() {
                 extra.column_mut(c).scale_mut(1.0 / nrm);
@@ -267,7 +299,8 @@ impl<'a> Linear<'a> {
         let p = free.len() + extra.ncols();
         let mut full = DMatrix::zeros(2 * n, p);
         full.columns_mut(0, free.len()).copy_from(&a);
-        full.columns_mut(free.len(), extra.ncols()).copy_from(&extra);
+        full.columns_mut(free.len(), extra.ncols())
+            .copy_from(&extra);
         let jac = Design {
             a: full,
             pen: DMatrix::identity(p, p) * JAC_RIDGE,

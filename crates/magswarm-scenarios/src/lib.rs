@@ -231,7 +231,9 @@ impl Scenario {
                 let mut v = vec![left.pop().unwrap_or((13.5, 5.0))];
                 while v.len() < 60 {
                     let last = v[v.len() - 1];
-                    let far = |p: &(f64, f64)| (p.0 - last.0).abs() >= 10.0 || (p.1 - last.1).abs() >= 4.0;
+                    let far = |p: &(f64, f64)| {
+                        (p.0 - last.0).abs() >= 10.0 || (p.1 - last.1).abs() >= 4.0
+                    };
                     let pick = match left.iter().position(far) {
                         Some(i) => left.swap_remove(i),
                         None => {
@@ -302,7 +304,10 @@ impl Lab {
         let mut r = self.map(z, f);
         let base = r;
         for tr in &sc.truths {
-            let a = [tr.strength * self.visit_sd[0], tr.strength * self.visit_sd[1]];
+            let a = [
+                tr.strength * self.visit_sd[0],
+                tr.strength * self.visit_sd[1],
+            ];
             let bump = |x: f64, c: f64, w: f64| (-(x - c) * (x - c) / (2.0 * w * w)).exp();
             match tr.shape {
                 Shape::BandR2 { f0 } => r[1] += 1.6 * a[1] * bump(f, f0, 0.6),
@@ -356,7 +361,8 @@ impl Lab {
                     r = [r[0] + 0.5 * a[0], r[1] + 0.5 * a[0]];
                 }
                 Shape::Bump { z0, f0, n } => {
-                    let near = (z - z0).abs() < 1e-6 && (f - f0).abs() <= 0.5 * (n as f64 - 1.0) + 1e-6;
+                    let near =
+                        (z - z0).abs() < 1e-6 && (f - f0).abs() <= 0.5 * (n as f64 - 1.0) + 1e-6;
                     if near {
                         r[0] += 2.0 * a[0];
                         r[1] += 2.0 * a[1];
@@ -377,7 +383,10 @@ impl Lab {
     fn over_time(&self, sc: &Scenario, r: [f64; 2], frac: f64) -> [f64; 2] {
         let mut r = r;
         for tr in &sc.truths {
-            let a = [tr.strength * self.visit_sd[0], tr.strength * self.visit_sd[1]];
+            let a = [
+                tr.strength * self.visit_sd[0],
+                tr.strength * self.visit_sd[1],
+            ];
             let g = match tr.shape {
                 Shape::LinearLoss => -frac,
                 Shape::SqrtLoss => -frac.sqrt(),
@@ -436,7 +445,9 @@ impl Lab {
         let mut prev: Option<[f64; 2]> = None;
         for &(z, f) in visits {
             let target = self.steady(sc, z, f);
-            let step = prev.map(|p| [target[0] - p[0], target[1] - p[1]]).unwrap_or([0.0; 2]);
+            let step = prev
+                .map(|p| [target[0] - p[0], target[1] - p[1]])
+                .unwrap_or([0.0; 2]);
             let off = [
                 self.visit_sd[0] * normal(&mut rng),
                 self.visit_sd[1] * normal(&mut rng),
@@ -477,21 +488,41 @@ pub fn scenarios(seed: u64) -> Vec<Scenario> {
         }
         out
     };
-    shapes.extend(draws(1, &mut |u| Shape::BandR2 { f0: u(4.5, 6.5).round() + 0.5 }));
+    shapes.extend(draws(1, &mut |u| Shape::BandR2 {
+        f0: u(4.5, 6.5).round() + 0.5,
+    }));
     shapes.extend(draws(1, &mut |u| Shape::DriveRollOff { f0: u(5.0, 7.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::MovingKnee { f0: u(4.0, 6.0), slope: u(0.05, 0.15) }));
+    shapes.extend(draws(1, &mut |u| Shape::MovingKnee {
+        f0: u(4.0, 6.0),
+        slope: u(0.05, 0.15),
+    }));
     shapes.extend(draws(1, &mut |u| Shape::LinearOnset { z0: u(11.0, 16.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::ExpOnset { z0: u(8.0, 13.0), len: u(4.0, 8.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::LogisticOnset { z0: u(15.0, 19.0), w: u(1.0, 2.5) }));
+    shapes.extend(draws(1, &mut |u| Shape::ExpOnset {
+        z0: u(8.0, 13.0),
+        len: u(4.0, 8.0),
+    }));
+    shapes.extend(draws(1, &mut |u| Shape::LogisticOnset {
+        z0: u(15.0, 19.0),
+        w: u(1.0, 2.5),
+    }));
     shapes.push(Shape::LinearLoss);
     shapes.push(Shape::SqrtLoss);
     shapes.extend(draws(1, &mut |u| Shape::SuddenLoss { at: u(0.3, 0.7) }));
-    shapes.extend(draws(1, &mut |u| Shape::SaturatingGrowth { frac: u(0.2, 0.5) }));
+    shapes.extend(draws(1, &mut |u| Shape::SaturatingGrowth {
+        frac: u(0.2, 0.5),
+    }));
     shapes.extend(draws(1, &mut |u| Shape::SlowMode { tau: u(5.0, 12.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::Ringing { period: u(3.0, 6.0), tau: u(4.0, 10.0) }));
+    shapes.extend(draws(1, &mut |u| Shape::Ringing {
+        period: u(3.0, 6.0),
+        tau: u(4.0, 10.0),
+    }));
     shapes.extend(draws(1, &mut |u| Shape::DeadTime { delay: u(3.0, 6.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::OffAxis { offset: u(3.0, 5.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::TiltedAxis { offset: u(5.0, 8.0) }));
+    shapes.extend(draws(1, &mut |u| Shape::OffAxis {
+        offset: u(3.0, 5.0),
+    }));
+    shapes.extend(draws(1, &mut |u| Shape::TiltedAxis {
+        offset: u(5.0, 8.0),
+    }));
     let mut out = Vec::new();
     let mut id = 0;
     let mut push = |protocol, truths: Vec<Truth>, out: &mut Vec<Scenario>| {
@@ -513,30 +544,73 @@ pub fn scenarios(seed: u64) -> Vec<Scenario> {
     // Strength 3 once more on the two protocols each shape has not had at 3.
     for (k, &shape) in shapes.iter().enumerate() {
         let p = protocols[(k + 1) % 3];
-        push(p, vec![Truth { shape, strength: 3.0 }], &mut out);
+        push(
+            p,
+            vec![Truth {
+                shape,
+                strength: 3.0,
+            }],
+            &mut out,
+        );
+    }
+    // Strengths 2 and 5 on the protocol each shape has had at neither.
+    for (k, &shape) in shapes.iter().enumerate() {
+        for (j, strength) in [(1, 2.0), (3, 5.0)] {
+            let p = protocols[(k + j + 2) % 3];
+            push(p, vec![Truth { shape, strength }], &mut out);
+        }
     }
     // Null logs.
-    for i in 0..15 {
+    for i in 0..18 {
         push(protocols[i % 3], Vec::new(), &mut out);
     }
     // Anomalies no effect describes.
     let anomalies = [
-        Shape::Bump { z0: 13.5, f0: 5.0, n: 3 },
-        Shape::Bump { z0: 8.5, f0: 3.5, n: 2 },
-        Shape::Bump { z0: 18.5, f0: 7.5, n: 4 },
+        Shape::Bump {
+            z0: 13.5,
+            f0: 5.0,
+            n: 3,
+        },
+        Shape::Bump {
+            z0: 8.5,
+            f0: 3.5,
+            n: 2,
+        },
+        Shape::Bump {
+            z0: 18.5,
+            f0: 7.5,
+            n: 4,
+        },
         Shape::DipR1 { z0: 13.5, f0: 8.0 },
-        Shape::Bump { z0: 8.5, f0: 8.0, n: 3 },
+        Shape::Bump {
+            z0: 8.5,
+            f0: 8.0,
+            n: 3,
+        },
     ];
     for (i, &shape) in anomalies.iter().enumerate() {
         for strength in [3.0, 5.0, 4.0] {
-            push(protocols[(i + strength as usize) % 3], vec![Truth { shape, strength }], &mut out);
+            push(
+                protocols[(i + strength as usize) % 3],
+                vec![Truth { shape, strength }],
+                &mut out,
+            );
         }
     }
     // Two effects in one log.
     let pairs = [
-        (Shape::SuddenLoss { at: 0.5 }, Shape::LinearOnset { z0: 14.0 }),
+        (
+            Shape::SuddenLoss { at: 0.5 },
+            Shape::LinearOnset { z0: 14.0 },
+        ),
         (Shape::BandR2 { f0: 5.5 }, Shape::LinearLoss),
-        (Shape::Ringing { period: 4.0, tau: 6.0 }, Shape::ExpOnset { z0: 10.0, len: 5.0 }),
+        (
+            Shape::Ringing {
+                period: 4.0,
+                tau: 6.0,
+            },
+            Shape::ExpOnset { z0: 10.0, len: 5.0 },
+        ),
         (Shape::DriveRollOff { f0: 6.0 }, Shape::SqrtLoss),
         (Shape::SlowMode { tau: 8.0 }, Shape::BandR2 { f0: 4.5 }),
     ];
@@ -551,8 +625,22 @@ pub fn scenarios(seed: u64) -> Vec<Scenario> {
     }
     // Camera bias: what the radii cannot show (absorbed by the baseline's gains).
     for strength in [2.0, 5.0] {
-        push(Protocol::GridOnce, vec![Truth { shape: Shape::CameraScale, strength }], &mut out);
-        push(Protocol::GridTwice, vec![Truth { shape: Shape::CameraOffset, strength }], &mut out);
+        push(
+            Protocol::GridOnce,
+            vec![Truth {
+                shape: Shape::CameraScale,
+                strength,
+            }],
+            &mut out,
+        );
+        push(
+            Protocol::GridTwice,
+            vec![Truth {
+                shape: Shape::CameraOffset,
+                strength,
+            }],
+            &mut out,
+        );
     }
     out
 }
@@ -584,7 +672,7 @@ mod tests {
                 .collect();
             assert!(shapes.len() >= 2, "{e}: {shapes:?}");
         }
-        assert!(a.iter().filter(|s| s.truths.is_empty()).count() >= 15);
+        assert!(a.iter().filter(|s| s.truths.is_empty()).count() >= 18);
     }
 
     #[test]
@@ -611,7 +699,16 @@ mod tests {
     #[test]
     fn names_no_item_of_the_models_effect_terms() {
         let src = include_str!("lib.rs");
-        for forbidden in ["effects::", "PhaseLag", "CohesionLoss", "FormationLag", "ParticleDrift", "CentroidOffset", "CameraBias", "learned"] {
+        for forbidden in [
+            "effects::",
+            "PhaseLag",
+            "CohesionLoss",
+            "FormationLag",
+            "ParticleDrift",
+            "CentroidOffset",
+            "CameraBias",
+            "learned",
+        ] {
             let hits = src.matches(forbidden).count();
             // The list above is the only place the names may appear.
             assert!(hits <= 1, "{forbidden} appears {hits} times");

@@ -1,0 +1,98 @@
+//! A small subset of the independent diagnose benchmark (crates/magswarm-scenarios; the
+//! whole set runs with `cargo run --release --example diagnose_benchmark`): the generator is
+//! deterministic and writes valid logs, and diagnose is right on null logs, a local anomaly
+//! and strong effects of every kind with an axis, in shapes that are not the library's.
+
+use magswarm::diagnose::{self, Config};
+use magswarm::log::Log;
+use magswarm::model::Model;
+use magswarm_scenarios::{scenarios, Protocol, Scenario, Shape, Truth};
+
+#[path = "common/bench_score.rs"]
+mod bench_score;
+
+fn verdict(sc: &Scenario) -> (&'static str, Vec<String>) {
+    let (train, withheld) = sc.logs();
+    let log = Log::from_str_named(&train, "scenario.csv").expect("a valid log");
+    let w = Log::from_str_named(&withheld, "withheld.csv").expect("a valid log");
+    assert!(log.rows.len() >= 250 && w.rows.len() >= 100);
+    let d = diagnose::diagnose(&log, Some(&w), &Model::paper(), &Config::default())
+        .expect("diagnose runs");
+    (bench_score::score(sc, &d), d.attr.accepted.clone())
+}
+
+fn one(shape: Shape, strength: f64, protocol: Protocol, seed: u64) -> Scenario {
+    Scenario {
+        id: 0,
+        protocol,
+        truths: vec![Truth { shape, strength }],
+        seed,
+    }
+}
+
+#[test]
+fn the_generator_is_deterministic_for_a_seed() {
+    let a = scenarios(3);
+    let b = scenarios(3);
+    assert!(a.len() >= 150);
+    for i in [0, 40, 120] {
+        assert_eq!(a[i].describe(), b[i].describe());
+        assert_eq!(a[i].logs(), b[i].logs());
+    }
+    assert_ne!(scenarios(4)[40].logs(), a[40].logs());
+}
+
+#[test]
+fn null_logs_from_another_lab_name_nothing() {
+    for (seed, p) in [
+        (11, Protocol::GridOnce),
+        (12, Protocol::GridTwice),
+        (13, Protocol::FarSteps),
+    ] {
+        let sc = Scenario {
+            id: 0,
+            protocol: p,
+            truths: Vec::new(),
+            seed,
+        };
+        let (v, named) = verdict(&sc);
+        assert_eq!(v, "right", "{}: named {named:?}", sc.describe());
+    }
+}
+
+#[test]
+fn strong_foreign_effects_are_named_right() {
+    for sc in [
+        one(Shape::LinearOnset { z0: 14.0 }, 5.0, Protocol::GridOnce, 21),
+        one(Shape::SuddenLoss { at: 0.5 }, 5.0, Protocol::GridTwice, 22),
+        one(
+            Shape::Ringing {
+                period: 4.0,
+                tau: 6.0,
+            },
+            5.0,
+            Protocol::FarSteps,
+            23,
+        ),
+        one(Shape::BandR2 { f0: 5.5 }, 5.0, Protocol::GridOnce, 24),
+    ] {
+        let (v, named) = verdict(&sc);
+        assert_eq!(v, "right", "{}: named {named:?}", sc.describe());
+    }
+}
+
+#[test]
+fn a_local_anomaly_is_reported_unexplained_at_its_place() {
+    let sc = one(
+        Shape::Bump {
+            z0: 13.5,
+            f0: 5.0,
+            n: 3,
+        },
+        5.0,
+        Protocol::GridOnce,
+        31,
+    );
+    let (v, named) = verdict(&sc);
+    assert_eq!(v, "right", "{}: named {named:?}", sc.describe());
+}
