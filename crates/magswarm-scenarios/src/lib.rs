@@ -9,8 +9,8 @@
 //!   with its own time constant, not ODE (4)). Only the baseline steady map (5)-(7) of
 //!   `magswarm-model` is used, as the physics both labs share.
 //! - **Foreign shapes**: the effects are written here from their physical description, in at
-//!   least three shapes each, none of them the library's parametric form or a learned shape's
-//!   piecewise-linear form (bands, tanh and logistic roll-offs, knees, power-law and
+//!   least three shapes each, none of them the library's parametric form or the
+//!   piecewise-linear tables diagnose fits (bands, tanh and logistic roll-offs, knees, power-law and
 //!   exponential onsets, sudden losses, ringing and dead-time transients, off-axis geometry).
 //!   A test on this crate's source checks that it names no item of `magswarm_model::effects`.
 //! - **Protocols**: the seed's 50-point grid visited once with 10 rows per visit, the grid
@@ -86,10 +86,15 @@ pub enum Shape {
     OffAxis { offset: f64 },
     /// An axis that is tilted: the offset grows with depth, `offset` mm at the largest z_m.
     TiltedAxis { offset: f64 },
+    /// An eccentric swarm: off the axis it is stretched along the field lines and squeezed
+    /// across them, the more the weaker the field (r2 up, r1 down, growing with z_m).
+    Eccentric,
     /// The camera's scale (1 + eps) on both radii.
     CameraScale,
     /// An offset of both radii in the image.
     CameraOffset,
+    /// An image plane tilted about the r1 axis: r2 foreshortened by cos(tilt).
+    CameraTilt,
     /// A local bump at `n` neighbouring grid points around (z0, f0), both radii.
     Bump { z0: f64, f0: f64, n: usize },
     /// A local dip of r1 only at two neighbouring frequencies.
@@ -113,8 +118,10 @@ impl Shape {
             Shape::SlowMode { .. } | Shape::Ringing { .. } | Shape::DeadTime { .. } => {
                 "formation_lag"
             }
-            Shape::OffAxis { .. } | Shape::TiltedAxis { .. } => "centroid_offset",
-            Shape::CameraScale | Shape::CameraOffset => "camera_bias",
+            Shape::OffAxis { .. } | Shape::TiltedAxis { .. } | Shape::Eccentric => {
+                "centroid_offset"
+            }
+            Shape::CameraScale | Shape::CameraOffset | Shape::CameraTilt => "camera_bias",
             Shape::Bump { .. } | Shape::DipR1 { .. } => "anomaly",
         }
     }
@@ -137,7 +144,9 @@ impl Shape {
             Shape::DriveRollOff { f0 } | Shape::MovingKnee { f0, .. } => Some((all_z, (f0, 10.0))),
             Shape::LinearOnset { z0 } | Shape::ExpOnset { z0, .. } => Some(((z0, 23.5), all_f)),
             Shape::LogisticOnset { z0, .. } => Some(((z0 - 2.5, 23.5), all_f)),
-            Shape::OffAxis { .. } | Shape::TiltedAxis { .. } => Some((all_z, all_f)),
+            Shape::OffAxis { .. } | Shape::TiltedAxis { .. } | Shape::Eccentric => {
+                Some((all_z, all_f))
+            }
             Shape::Bump { z0, f0, .. } => Some(((z0, z0), (f0 - 1.0, f0 + 1.0))),
             Shape::DipR1 { z0, f0 } => Some(((z0, z0), (f0, f0 + 1.0))),
             _ => None,
@@ -353,6 +362,15 @@ impl Lab {
                         r[i] += far[i] - base[i];
                     }
                 }
+                Shape::Eccentric => {
+                    let g = ((z - 3.5) / 20.0).clamp(0.0, 1.0).powf(1.5);
+                    r[0] -= 1.5 * a[0] * g;
+                    r[1] += 2.0 * a[1] * g;
+                }
+                Shape::CameraTilt => {
+                    let c = (0.08 * tr.strength).min(0.6).cos();
+                    r[1] *= c;
+                }
                 Shape::CameraScale => {
                     let eps = 0.02 * tr.strength;
                     r = [r[0] * (1.0 + eps), r[1] * (1.0 + eps)];
@@ -523,6 +541,7 @@ pub fn scenarios(seed: u64) -> Vec<Scenario> {
     shapes.extend(draws(1, &mut |u| Shape::TiltedAxis {
         offset: u(5.0, 8.0),
     }));
+    shapes.push(Shape::Eccentric);
     let mut out = Vec::new();
     let mut id = 0;
     let mut push = |protocol, truths: Vec<Truth>, out: &mut Vec<Scenario>| {
@@ -641,6 +660,14 @@ pub fn scenarios(seed: u64) -> Vec<Scenario> {
             }],
             &mut out,
         );
+        push(
+            Protocol::FarSteps,
+            vec![Truth {
+                shape: Shape::CameraTilt,
+                strength,
+            }],
+            &mut out,
+        );
     }
     out
 }
@@ -662,7 +689,7 @@ mod tests {
             "particle_drift",
             "formation_lag",
             "centroid_offset",
-            "anomaly",
+            "camera_bias",
         ] {
             let shapes: std::collections::BTreeSet<String> = a
                 .iter()
@@ -670,7 +697,7 @@ mod tests {
                 .filter(|t| t.shape.effect() == e)
                 .map(|t| t.shape.label())
                 .collect();
-            assert!(shapes.len() >= 2, "{e}: {shapes:?}");
+            assert!(shapes.len() >= 3, "{e}: at least 3 foreign shapes: {shapes:?}");
         }
         assert!(a.iter().filter(|s| s.truths.is_empty()).count() >= 18);
     }
