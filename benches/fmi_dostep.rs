@@ -47,6 +47,8 @@ impl Raw {
         slave.exit_initialization_mode().unwrap();
         let b = slave.raw_binding();
         // SAFETY: the binding's function types are these C signatures (fmi2Functions.h).
+        // (The source types are the bindings' generated ones, named by inference.)
+        #[allow(clippy::missing_transmute_annotations)]
         let (do_step, set_real, get_real) = unsafe {
             (
                 std::mem::transmute::<_, DoStep>(*b.fmi2DoStep.as_ref().unwrap()),

@@ -249,7 +249,7 @@ fn main() -> anyhow::Result<()> {
         q(0.9)
     );
     if !sh.is_empty() {
-        let mut hist = vec![0usize; 12];
+        let mut hist = [0usize; 12];
         for s in &sh {
             let b = ((s.clamp(-10.0, 109.0) + 10.0) / 10.0) as usize;
             hist[b.min(11)] += 1;

@@ -16,7 +16,6 @@
 #[allow(dead_code)]
 mod pid_tracking;
 #[path = "../tests/common/synth.rs"]
-#[allow(dead_code)]
 mod synth;
 
 use std::f64::consts::TAU;
@@ -77,6 +76,8 @@ impl Raw {
             );
         };
         // SAFETY: the binding's function types are these C signatures (fmi2Functions.h).
+        // (The source types are the bindings' generated ones, named by inference.)
+        #[allow(clippy::missing_transmute_annotations)]
         let (do_step, set_real, get_real) = unsafe {
             (
                 std::mem::transmute::<_, DoStep>(*d),

@@ -67,6 +67,17 @@ fi
 
 # ---------------------------------------------------------------- toolchain check
 command -v cargo >/dev/null 2>&1 || die "cargo not found: install a Rust toolchain (rustup) first"
+# The lint gates of the test command need rustfmt and clippy (components of the toolchain).
+for comp in rustfmt clippy; do
+    if ! cargo "${comp/rustfmt/fmt}" --version >/dev/null 2>&1; then
+        if command -v rustup >/dev/null 2>&1; then
+            say "rustup component add $comp"
+            rustup component add "$comp" || die "rustup component add $comp failed"
+        else
+            die "cargo ${comp/rustfmt/fmt} is missing and there is no rustup to add it: install the $comp component"
+        fi
+    fi
+done
 
 # ---------------------------------------------------------------- python
 pick_python() {

@@ -4,6 +4,8 @@
 #   bash scripts/test.sh
 #
 # 1. scripts/setup.sh            (apt packages, .venv with fmpy/pytest/libcosimpy; idempotent)
+#    then the lint gates: cargo fmt --check, clippy -D warnings (workspace lints in Cargo.toml),
+#    rustdoc with warnings denied
 # 2. cargo build --release --workspace
 # 3. target/release/magswarm fmu (packages target/fmu/MagSwarm.fmu, used by the tests below)
 # 4. cargo nextest run --workspace --release (cargo test when nextest is absent) + doc tests
@@ -36,8 +38,16 @@ step() {
 
 step "setup (scripts/setup.sh)" bash "$ROOT/scripts/setup.sh"
 
+step "cargo fmt --all -- --check" cargo fmt --all -- --check
+
 step "cargo build --release --workspace" \
     cargo build --release --workspace
+
+step "cargo clippy --release --workspace --all-targets -- -D warnings" \
+    cargo clippy --release --workspace --all-targets -- -D warnings
+
+step "cargo doc --release --workspace --no-deps (rustdoc warnings denied)" \
+    env RUSTDOCFLAGS="-D warnings" cargo doc --release --workspace --no-deps
 
 [ -x target/release/magswarm ] || fail "target/release/magswarm was not built"
 

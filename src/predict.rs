@@ -28,18 +28,18 @@ use std::collections::HashMap;
 /// One input sample of a replay.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InputRow {
-    /// Time within the session [s] (non-decreasing).
+    /// Time within the session \[s\] (non-decreasing).
     pub t: f64,
-    /// Commanded z_m [mm].
+    /// Commanded z_m \[mm\].
     pub z_mm: f64,
-    /// Commanded frequency [Hz].
+    /// Commanded frequency \[Hz\].
     pub f_hz: f64,
 }
 
 /// Relative/absolute tolerance of the replay integrator (radii in mm).
 pub const REPLAY_RTOL: f64 = 1e-7;
 
-/// Replay one session: the observed radii [mm] (ODE (4) plus the model's effects) at each row (see the module docs for the semantics).
+/// Replay one session: the observed radii \[mm\] (ODE (4) plus the model's effects) at each row (see the module docs for the semantics).
 /// `rtol` sets the integrator's relative and absolute (mm) tolerance.
 pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2]>> {
     let Some(first) = rows.first() else {

@@ -145,7 +145,9 @@ fn hostile_archives_are_refused_naming_the_entry_and_leave_nothing() {
     let xml = std::fs::read(real.extracted_dir().join("modelDescription.xml")).unwrap();
     drop(real);
     let zeros = vec![0u8; 64 << 20];
-    let cases: Vec<(&str, Vec<(&str, &[u8])>, &str)> = vec![
+    // (case, archive entries (name, bytes), what the refusal must name)
+    type Case<'a> = (&'a str, Vec<(&'a str, &'a [u8])>, &'a str);
+    let cases: Vec<Case> = vec![
         (
             "zip-slip",
             vec![

@@ -5,10 +5,10 @@ use std::path::PathBuf;
 /// Arguments of `magswarm inverse`.
 #[derive(Debug, clap::Args)]
 pub struct InverseArgs {
-    /// Target r1 [mm].
+    /// Target r1 \[mm\].
     #[arg(long)]
     pub r1: f64,
-    /// Target r2 [mm].
+    /// Target r2 \[mm\].
     #[arg(long)]
     pub r2: f64,
     /// Model JSON (default: the built-in paper model).
@@ -34,10 +34,10 @@ pub enum LinFormat {
 /// Arguments of `magswarm linearize`.
 #[derive(Debug, clap::Args)]
 pub struct LinearizeArgs {
-    /// Operating point z_m [mm].
+    /// Operating point z_m \[mm\].
     #[arg(long)]
     pub z: f64,
-    /// Operating point f [Hz].
+    /// Operating point f \[Hz\].
     #[arg(long)]
     pub f: f64,
     /// Model JSON (default: the built-in paper model).

@@ -28,7 +28,7 @@ pub struct IdentifyArgs {
     /// Bounds override NAME=LO:HI (repeatable).
     #[arg(long)]
     pub bound: Vec<String>,
-    /// Fixed settle time [s] after an input change (overrides --settle-factor).
+    /// Fixed settle time \[s\] after an input change (overrides --settle-factor).
     #[arg(long)]
     pub settle_s: Option<f64>,
     /// Settle time as a multiple of the model's slowest time constant at the inputs.

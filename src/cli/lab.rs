@@ -39,10 +39,10 @@ pub struct LabArgs {
     /// Grid: passes over the grid per session.
     #[arg(long)]
     pub visits: Option<usize>,
-    /// Grid: wait after an input change before the first measurement [s].
+    /// Grid: wait after an input change before the first measurement \[s\].
     #[arg(long)]
     pub settle_s: Option<f64>,
-    /// Time between measurements [s].
+    /// Time between measurements \[s\].
     #[arg(long)]
     pub sample_s: Option<f64>,
     /// Add an unmodelled effect in the lab's foreign form at a strength (1: the documented

@@ -42,9 +42,9 @@ pub enum ParamValue {
 /// Configuration of a [`CoSimulation`].
 #[derive(Debug, Clone)]
 pub struct CoSimConfig {
-    /// Communication step size `h` [s].
+    /// Communication step size `h` \[s\].
     pub step_s: f64,
-    /// Start time [s].
+    /// Start time \[s\].
     pub start_time_s: f64,
     /// Stop time passed to `fmi2SetupExperiment` (None: open-ended).
     pub stop_time_s: Option<f64>,
@@ -90,12 +90,12 @@ impl Default for CoSimConfig {
 pub struct Measurement {
     /// Sample index `k` since the start.
     pub k: u64,
-    /// Time `t_k` [s].
+    /// Time `t_k` \[s\].
     pub t_s: f64,
     /// Inputs in force up to `t_k` `[z_m [m], omega_m [rad/s]]` (the last command, or the
     /// initial inputs).
     pub inputs: [f64; 2],
-    /// Measured outputs `[r1, r2]` [m].
+    /// Measured outputs `[r1, r2]` \[m\].
     pub radii_m: [f64; 2],
     /// Values of [`CoSimConfig::extra_outputs`], same order (SI).
     pub extra: Vec<f64>,
@@ -113,7 +113,7 @@ impl Measurement {
 pub struct RunSummary {
     /// Communication steps taken.
     pub steps: u64,
-    /// Time at the end [s].
+    /// Time at the end \[s\].
     pub t_end_s: f64,
     /// Calls that returned `fmi2Warning` (the messages are in the slave's log).
     pub warnings: u64,
@@ -206,12 +206,12 @@ impl CoSimulation {
         })
     }
 
-    /// The current time [s].
+    /// The current time \[s\].
     pub fn time(&self) -> f64 {
         self.t
     }
 
-    /// The communication step [s].
+    /// The communication step \[s\].
     pub fn step_size(&self) -> f64 {
         self.h
     }

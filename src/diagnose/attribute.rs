@@ -48,6 +48,9 @@ pub const MIN_GAIN: f64 = 2.0;
 /// Ridge on the baseline's free-parameter directions (unit-norm columns).
 const JAC_RIDGE: f64 = 1e-2;
 
+/// Predicted radii (r1, r2) at every row \[mm\].
+pub type Preds = Vec<[f64; 2]>;
+
 /// Settings.
 #[derive(Debug, Clone, Copy)]
 pub struct Settings {
@@ -120,7 +123,7 @@ pub struct CandidateEval {
     pub form_gains: Option<(f64, f64)>,
     /// Predictions at every row of the baseline with the library form, and with the learned
     /// shape (named effects): what each adds to the baseline, for the report's figure.
-    pub curves: Option<(Vec<[f64; 2]>, Vec<[f64; 2]>)>,
+    pub curves: Option<(Preds, Preds)>,
 }
 
 /// Everything attribution produced.
@@ -370,7 +373,7 @@ impl<'a> Linear<'a> {
     }
 
     /// In-sample and withheld predictions of a design.
-    fn evaluate(&self, d: &Design) -> Option<(Vec<[f64; 2]>, Vec<[f64; 2]>)> {
+    fn evaluate(&self, d: &Design) -> Option<(Preds, Preds)> {
         let s = Solver::new(d, &self.fold_of_stacked, self.k)?;
         let fit = &self.y - s.residual(&self.y);
         let cv = &self.y - s.cv_residual(&self.y);
@@ -1110,11 +1113,10 @@ fn choose_forms(
             .filter(|_| is_shape)
             .and_then(|d| lin.evaluate(d))
             .map(|x| x.0);
-        let e = out.evals.iter_mut().find(|e| &e.name == name);
-        let e = e.map(|e| {
+        let mut e = out.evals.iter_mut().find(|e| &e.name == name);
+        if let Some(e) = e.as_deref_mut() {
             e.curves = Some((p_fit.clone(), learned_pred.unwrap_or_default()));
-            e
-        });
+        }
         // Given the effects named before it (in whichever form they took), an effect that no
         // longer gains what names an effect is dropped: it was explaining their leftovers.
         if g_param.max(g_learned) < MIN_GAIN {

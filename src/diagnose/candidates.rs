@@ -13,12 +13,12 @@
 //!
 //! | candidate | freed parameters (fit space) | model parameters | fixed at neutral, and why |
 //! | --- | --- | --- | --- |
-//! | `phase_lag` | f_mid [Hz] (step-out frequency at the data's mid-range field), nu [-], spread [-] | `f_so_hz = f_mid (B_ref / B_mid)^nu`, `nu`, `spread` | - |
-//! | `cohesion_loss` | z_c [mm], k [1/mm^2] | `z_c_mm`, `k_per_mm2` | - |
-//! | `formation_lag` | share [-], tau_s [s], zeta [-] | the same | - |
+//! | `phase_lag` | f_mid \[Hz\] (step-out frequency at the data's mid-range field), nu [-], spread [-] | `f_so_hz = f_mid (B_ref / B_mid)^nu`, `nu`, `spread` | - |
+//! | `cohesion_loss` | z_c \[mm\], k [1/mm^2] | `z_c_mm`, `k_per_mm2` | - |
+//! | `formation_lag` | share [-], tau_s \[s\], zeta [-] | the same | - |
 //! | `particle_drift` | rate [1/h] | `rate_per_h` | - |
-//! | `centroid_offset` | offset [mm] | `offset_mm` | - |
-//! | `camera_bias` | offset [mm] | `offset_mm` | `scale`, `tilt_deg`: a scale of the radii (and the cos(tilt) of r2) is the baseline's C_1, C_2, which are refitted with every candidate: not identifiable from radii |
+//! | `centroid_offset` | offset \[mm\] | `offset_mm` | - |
+//! | `camera_bias` | offset \[mm\] | `offset_mm` | `scale`, `tilt_deg`: a scale of the radii (and the cos(tilt) of r2) is the baseline's C_1, C_2, which are refitted with every candidate: not identifiable from radii |
 //!
 //! Fitting `phase_lag` at the data's mid-range field rather than at B_ref keeps the step-out
 //! location and its field exponent nearly uncorrelated (the fit is better conditioned), and
@@ -314,7 +314,7 @@ pub struct Augmented {
     pub model: Model,
     /// Active candidates (name, fit-space values), in order of addition.
     pub effects: Vec<(String, Vec<f64>)>,
-    /// |B| at the middle of the data's z_m range [T] (the reference of `phase_lag`'s f_mid).
+    /// |B| at the middle of the data's z_m range \[T\] (the reference of `phase_lag`'s f_mid).
     pub b_mid: f64,
     /// Learned shapes along effects' axes (name of the effect, shape), in order of addition:
     /// applied by [`predict`] after the parametric effects, and written into the model file
@@ -366,21 +366,21 @@ impl Augmented {
 /// What the candidates need to know of the training data besides its rows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ctx {
-    /// |B| at the middle of the z_m range of the training data [T].
+    /// |B| at the middle of the z_m range of the training data \[T\].
     pub b_mid: f64,
-    /// Largest z_m of the training data [mm].
+    /// Largest z_m of the training data \[mm\].
     pub z_max: f64,
-    /// Smallest z_m of the training data [mm].
+    /// Smallest z_m of the training data \[mm\].
     pub z_min: f64,
-    /// Smallest f of the training data [Hz].
+    /// Smallest f of the training data \[Hz\].
     pub f_min: f64,
-    /// Largest f of the training data [Hz].
+    /// Largest f of the training data \[Hz\].
     pub f_max: f64,
-    /// Smallest positive spacing of rows within a session [s].
+    /// Smallest positive spacing of rows within a session \[s\].
     pub dt_min: f64,
-    /// Longest session [s].
+    /// Longest session \[s\].
     pub t_span: f64,
-    /// The baseline's lateral distance of the swarm from the rotation axis [mm].
+    /// The baseline's lateral distance of the swarm from the rotation axis \[mm\].
     pub lateral_mm: f64,
 }
 
@@ -418,12 +418,12 @@ fn map_point(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
     [ok(sp.r1), ok(sp.r2)]
 }
 
-/// The physical steady map of a model at (z_m [mm], f [Hz]) [mm] (large where it breaks).
+/// The physical steady map of a model at (z_m \[mm\], f \[Hz\]) \[mm\] (large where it breaks).
 pub fn map_at(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
     map_point(m, z_mm, f_hz)
 }
 
-/// Physical steady map of the augmented model at every point of `ds` [mm].
+/// Physical steady map of the augmented model at every point of `ds` \[mm\].
 pub fn point_map(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
     map_of(&aug.synced(), ds)
 }
@@ -433,7 +433,7 @@ fn map_of(m: &Model, ds: &Dataset) -> Vec<[f64; 2]> {
     ds.points.iter().map(|&(z, f)| map_point(m, z, f)).collect()
 }
 
-/// Predicted (observed) radii at every row of `ds` [mm]: the steady map plus the baseline's
+/// Predicted (observed) radii at every row of `ds` \[mm\]: the steady map plus the baseline's
 /// transient part, the formation mode blended in, then drift and camera as observed at the
 /// row's session time.
 pub fn predict(aug: &Augmented, ds: &Dataset) -> Vec<[f64; 2]> {
@@ -582,12 +582,12 @@ fn formation(fl: &FormationLag, ds: &Dataset, map: &[[f64; 2]], out: &mut [[f64;
     }
 }
 
-/// |B| at a z_m [mm] [T].
+/// |B| at a z_m \[mm\] \[T\].
 pub fn field_b(model: &Model, z_mm: f64) -> f64 {
     steady::evaluate(model, z_mm * 1e-3, 1.0).field.b
 }
 
-/// Step-out frequency [Hz] of a model's `phase_lag` at z_m [mm] (None when it is off).
+/// Step-out frequency \[Hz\] of a model's `phase_lag` at z_m \[mm\] (None when it is off).
 pub fn step_out_hz(model: &Model, z_mm: f64) -> Option<f64> {
     let pl = model.effects.phase_lag?;
     let b = field_b(model, z_mm) / model.steady.B_ref;

@@ -24,21 +24,21 @@ pub struct DRow {
     pub visit: usize,
     /// Operating point index.
     pub point: usize,
-    /// Session time [s].
+    /// Session time \[s\].
     pub t: f64,
-    /// Time since the visit's input change [s].
+    /// Time since the visit's input change \[s\].
     pub since: f64,
-    /// Time since the previous valid row of the session [s] (0 for the first).
+    /// Time since the previous valid row of the session \[s\] (0 for the first).
     pub dt: f64,
-    /// z_m [mm].
+    /// z_m \[mm\].
     pub z: f64,
-    /// f [Hz].
+    /// f \[Hz\].
     pub f: f64,
-    /// Measured radii [mm].
+    /// Measured radii \[mm\].
     pub r: [f64; 2],
     /// Settled by identify's rule.
     pub settled: bool,
-    /// Baseline replay minus baseline steady map [mm].
+    /// Baseline replay minus baseline steady map \[mm\].
     pub trans: [f64; 2],
     /// The same transient as a fraction of the step the row's visit started with:
     /// (replay - map) / (state at the input change - map), per axis; NaN where the step is
@@ -59,7 +59,7 @@ pub struct Visit {
     pub point: usize,
     /// Rows (indices into `Dataset::rows`).
     pub rows: Vec<usize>,
-    /// Mid time of its rows [s].
+    /// Mid time of its rows \[s\].
     pub t_mid: f64,
     /// Previous visit in the same session (None for the first).
     pub prev: Option<usize>,
@@ -72,7 +72,7 @@ pub struct Dataset {
     pub rows: Vec<DRow>,
     /// Visits.
     pub visits: Vec<Visit>,
-    /// Distinct operating points (z_m [mm], f [Hz]).
+    /// Distinct operating points (z_m \[mm\], f \[Hz\]).
     pub points: Vec<(f64, f64)>,
     /// Session names.
     pub sessions: Vec<String>,
@@ -210,11 +210,11 @@ impl Dataset {
 /// Pure error of the repeats.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PureError {
-    /// Within-visit SD of settled rows per axis [mm].
+    /// Within-visit SD of settled rows per axis \[mm\].
     pub within_sd: [f64; 2],
     /// Degrees of freedom of `within_sd`.
     pub within_dof: usize,
-    /// Visit-to-visit SD beyond the within-visit part per axis [mm] (0 when it cannot be
+    /// Visit-to-visit SD beyond the within-visit part per axis \[mm\] (0 when it cannot be
     /// estimated: no operating point visited twice).
     pub between_sd: [f64; 2],
     /// Degrees of freedom of the between-visit estimate (0: none).
@@ -224,7 +224,7 @@ pub struct PureError {
 }
 
 impl PureError {
-    /// SD of one row around the true value (within + between) [mm].
+    /// SD of one row around the true value (within + between) \[mm\].
     pub fn row_sd(&self) -> [f64; 2] {
         [
             (self.within_sd[0].powi(2) + self.between_sd[0].powi(2)).sqrt(),

@@ -74,7 +74,7 @@ pub struct Detection {
     pub significant: bool,
     /// Families significant after the correction.
     pub families: Vec<&'static str>,
-    /// Visit noise of the current residual, per axis [mm].
+    /// Visit noise of the current residual, per axis \[mm\].
     pub visit_sd: [f64; 2],
 }
 
@@ -185,7 +185,7 @@ fn point_means(ds: &Dataset, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     (a, pen)
 }
 
-/// Unweighted row residuals [mm] of stacked weighted ones.
+/// Unweighted row residuals \[mm\] of stacked weighted ones.
 pub fn unweight(e: &DVector<f64>, w: [f64; 2]) -> Vec<[f64; 2]> {
     (0..e.len() / 2)
         .map(|i| [e[2 * i] / w[0], e[2 * i + 1] / w[1]])

@@ -6,7 +6,7 @@ use magswarm_model::learned::{LearnedAxis, LearnedMode, LearnedTerm};
 use magswarm_model::Model;
 
 /// The learned term of `sh`, the shape of effect `name`. Diagnose measures the field relative
-/// to its value at the middle of the data's z_m range (`b_mid` [T]); the model file relative to
+/// to its value at the middle of the data's z_m range (`b_mid` \[T\]); the model file relative to
 /// the model's B_ref: knots of a field-scaled frequency and field-scaled heights are converted.
 pub fn term(m: &Model, name: &str, sh: &Shape, b_mid: f64) -> LearnedTerm {
     let f = &sh.family;

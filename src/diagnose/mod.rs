@@ -80,10 +80,10 @@ impl Default for Config {
     }
 }
 
-/// Errors of a model on a set of rows, per axis [mm].
+/// Errors of a model on a set of rows, per axis \[mm\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rmse {
-    /// RMSE per axis [mm].
+    /// RMSE per axis \[mm\].
     pub rmse: [f64; 2],
     /// Rows.
     pub n: usize,
@@ -108,7 +108,7 @@ fn rmse(ds: &Dataset, pred: &[[f64; 2]]) -> Rmse {
 pub struct Unexplained {
     /// The region (as localised on the baseline).
     pub region: gap::Region,
-    /// Its mean residual under the augmented model [mm].
+    /// Its mean residual under the augmented model \[mm\].
     pub mean_after: f64,
     /// Share of the withheld error there that the discrepancy recovers (None: not applicable).
     pub heldout_shrink: Option<f64>,
@@ -138,7 +138,7 @@ pub struct Diagnosis {
     pub ctx: Ctx,
     /// Pure error.
     pub pe: PureError,
-    /// Row SD of the pure error around the augmented model: the noise floor [mm].
+    /// Row SD of the pure error around the augmented model: the noise floor \[mm\].
     pub floor: [f64; 2],
     /// Pure error around the augmented model (repeat visits compared after its effects).
     pub pe_aug: PureError,

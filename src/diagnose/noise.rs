@@ -18,7 +18,7 @@ use nalgebra::DVector;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
 
-/// Noise levels per axis [mm].
+/// Noise levels per axis \[mm\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Noise {
     /// SD of one row around its visit's mean.
@@ -83,7 +83,7 @@ pub fn cells(ds: &Dataset) -> (Vec<(usize, usize)>, usize, usize) {
     (c, zb.len(), fb.len())
 }
 
-/// Estimate the noise from a model's row residuals [mm] (`res`; its structure mostly cancels).
+/// Estimate the noise from a model's row residuals \[mm\] (`res`; its structure mostly cancels).
 pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
     // Row noise: successive differences of settled rows within a visit.
     let mut within = [0.0; 2];

@@ -24,16 +24,16 @@ use nalgebra::DMatrix;
 /// The variable a shape runs along.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Axis {
-    /// Field frequency [Hz], scaled by `(B(z_m)/B_mid)^-nu`.
+    /// Field frequency \[Hz\], scaled by `(B(z_m)/B_mid)^-nu`.
     F {
         /// Field exponent of the onset.
         nu: f64,
     },
-    /// Magnet distance z_m [mm].
+    /// Magnet distance z_m \[mm\].
     Z,
-    /// Session time [s].
+    /// Session time \[s\].
     T,
-    /// Time since the last input change [s].
+    /// Time since the last input change \[s\].
     Since,
 }
 
@@ -63,13 +63,13 @@ impl Axis {
 /// How the shape's value acts on a radius.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Mode {
-    /// Added [mm].
+    /// Added \[mm\].
     Add,
     /// Relative change [-]: r (1 + v).
     Relative,
     /// Fraction of the last input change's step of the steady map [-].
     StepFraction,
-    /// A deficit of the swarm's rotation rate [Hz]: the steady map at the drive frequency
+    /// A deficit of the swarm's rotation rate \[Hz\]: the steady map at the drive frequency
     /// less the value (one value for both radii: a step-out slows the whole swarm).
     Rate,
 }
@@ -166,20 +166,20 @@ pub fn knots_of(xs: &[f64], k: usize) -> Vec<f64> {
 pub struct RowCtx {
     /// Row weights per axis (1 / row SD).
     pub w: [f64; 2],
-    /// z_m [mm] per row.
+    /// z_m \[mm\] per row.
     pub z: Vec<f64>,
-    /// f [Hz] per row.
+    /// f \[Hz\] per row.
     pub f: Vec<f64>,
     /// ln(B(z)/B_mid) per row.
     pub ln_b: Vec<f64>,
-    /// Session time per row [s].
+    /// Session time per row \[s\].
     pub t: Vec<f64>,
-    /// Time since the visit's input change per row [s].
+    /// Time since the visit's input change per row \[s\].
     pub since: Vec<f64>,
     /// The step of the current model's steady map at the row's visit's input change
-    /// (0 for a session's first visit) [mm].
+    /// (0 for a session's first visit) \[mm\].
     pub delta: Vec<[f64; 2]>,
-    /// The current model's prediction per row [mm].
+    /// The current model's prediction per row \[mm\].
     pub pred: Vec<[f64; 2]>,
     /// Sensitivity of the steady map to the drive frequency at each row's point [mm/Hz].
     pub dmap_df: Vec<[f64; 2]>,

@@ -30,17 +30,17 @@ use std::collections::BTreeMap;
 /// One fit-relevant row of a session.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Row {
-    /// Time within the session [s].
+    /// Time within the session \[s\].
     pub t: f64,
-    /// Commanded z_m [mm].
+    /// Commanded z_m \[mm\].
     pub z_mm: f64,
-    /// Commanded frequency [Hz].
+    /// Commanded frequency \[Hz\].
     pub f_hz: f64,
-    /// Measured radii [mm] (None: invalid row or no radii).
+    /// Measured radii \[mm\] (None: invalid row or no radii).
     pub r: Option<[f64; 2]>,
     /// Index of the visit within the session (0: the session's first).
     pub visit: usize,
-    /// Time since the visit started [s].
+    /// Time since the visit started \[s\].
     pub since: f64,
     /// Settled by the rule above (only meaningful when `r` is Some).
     pub settled: bool,
@@ -51,7 +51,7 @@ pub struct Row {
 /// The rows of one session, in time order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Session {
-    /// "file" or "file [session]".
+    /// "file" or "file \[session\]".
     pub name: String,
     /// Rows.
     pub rows: Vec<Row>,
@@ -60,25 +60,25 @@ pub struct Session {
 /// One operating point: statistics of its settled rows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OpPoint {
-    /// z_m [mm].
+    /// z_m \[mm\].
     pub z_mm: f64,
-    /// f [Hz].
+    /// f \[Hz\].
     pub f_hz: f64,
     /// Number of settled rows.
     pub n: usize,
     /// Number of visits contributing.
     pub visits: usize,
-    /// Mean radii [mm].
+    /// Mean radii \[mm\].
     pub mean: [f64; 2],
-    /// Repeat standard deviation [mm] (0 when n = 1).
+    /// Repeat standard deviation \[mm\] (0 when n = 1).
     pub sd: [f64; 2],
-    /// Median absolute deviation from the median [mm].
+    /// Median absolute deviation from the median \[mm\].
     pub mad: [f64; 2],
-    /// Standard error of the mean used as the fit's weight [mm] (set by [`assign_weights`]).
+    /// Standard error of the mean used as the fit's weight \[mm\] (set by [`assign_weights`]).
     pub se: [f64; 2],
-    /// The settled samples [mm].
+    /// The settled samples \[mm\].
     pub samples: Vec<[f64; 2]>,
-    /// Session time [s] of each sample (same order; empty when not known, e.g. a point built
+    /// Session time \[s\] of each sample (same order; empty when not known, e.g. a point built
     /// by [`point_stats`] alone): drift effects make the observed radii depend on it.
     pub t_s: Vec<f64>,
 }
@@ -88,7 +88,7 @@ pub fn key(z_mm: f64, f_hz: f64) -> (i64, i64) {
     ((z_mm * 1e6).round() as i64, (f_hz * 1e6).round() as i64)
 }
 
-/// Slowest time constant [s] of ODE (4) linearised at the steady point (infinite when the
+/// Slowest time constant \[s\] of ODE (4) linearised at the steady point (infinite when the
 /// linearisation is not stable).
 pub fn time_constant(model: &Model, z_mm: f64, f_hz: f64) -> f64 {
     let t = InputTerms::new(model, z_mm * 1e-3, hz_to_rad_s(f_hz));
@@ -104,7 +104,7 @@ pub fn time_constant(model: &Model, z_mm: f64, f_hz: f64) -> f64 {
 /// The settle rule.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SettleRule {
-    /// Fixed settle time [s].
+    /// Fixed settle time \[s\].
     Fixed(f64),
     /// factor x slowest time constant of the model at the visit's inputs.
     TimeConstants(f64),
@@ -272,7 +272,7 @@ pub const SHRINK_DOF: f64 = 10.0;
 /// How the weights were set (for the report).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Weighting {
-    /// Pooled repeat SD per axis [mm] (NaN without repeats).
+    /// Pooled repeat SD per axis \[mm\] (NaN without repeats).
     pub pooled_sd: [f64; 2],
     /// False when no point has repeats: then every SE is 1 mm (unit weights).
     pub from_repeats: bool,

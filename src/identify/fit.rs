@@ -32,13 +32,13 @@ pub struct Ridge {
     pub terms: Vec<Option<(f64, f64)>>,
 }
 
-/// Steady prediction at one point [mm] as observed at session time 0, with a large finite
+/// Steady prediction at one point \[mm\] as observed at session time 0, with a large finite
 /// value where the model breaks (see [`predict_point_at`]).
 pub fn predict_point(m: &Model, z_mm: f64, f_hz: f64) -> [f64; 2] {
     predict_point_at(m, z_mm, f_hz, 0.0)
 }
 
-/// Steady prediction at one point [mm] as observed at session time `t_s` [s]: the observed
+/// Steady prediction at one point \[mm\] as observed at session time `t_s` \[s\]: the observed
 /// steady map, so drift (which depends on session time) and camera terms act as they do on a
 /// measurement; a large finite value where the model breaks (keeps LM's residuals finite).
 pub fn predict_point_at(m: &Model, z_mm: f64, f_hz: f64, t_s: f64) -> [f64; 2] {
@@ -46,7 +46,7 @@ pub fn predict_point_at(m: &Model, z_mm: f64, f_hz: f64, t_s: f64) -> [f64; 2] {
     finite([sp.r1, sp.r2])
 }
 
-/// Prediction of an operating point's mean [mm]: the observed steady map averaged over the
+/// Prediction of an operating point's mean \[mm\]: the observed steady map averaged over the
 /// session times of the settled rows pooled into the point (drift makes rows of one point
 /// taken at different times differ). Without observation effects, or without recorded times,
 /// it is the prediction at t = 0, which then does not depend on time.

@@ -71,7 +71,7 @@ pub struct DynFit {
     pub run: Run,
     /// Transient rows used.
     pub rows: usize,
-    /// RMS of the transient residuals [mm] per axis, with the prior dynamics and fitted.
+    /// RMS of the transient residuals \[mm\] per axis, with the prior dynamics and fitted.
     pub rms_before: [f64; 2],
     /// After the fit.
     pub rms_after: [f64; 2],
@@ -80,7 +80,7 @@ pub struct DynFit {
 /// Error figures of a model on a set of points.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Errors {
-    /// RMSE of the point means [mm].
+    /// RMSE of the point means \[mm\].
     pub rmse: [f64; 2],
     /// Mean absolute error relative to the measured mean [%].
     pub mae_pct: [f64; 2],
@@ -107,7 +107,7 @@ pub struct Counts {
     pub points: usize,
 }
 
-/// (t [s], replayed radii [mm], measured radii [mm]) of the report's transient plot.
+/// (t \[s\], replayed radii \[mm\], measured radii \[mm\]) of the report's transient plot.
 pub type TracePoint = (f64, [f64; 2], Option<[f64; 2]>);
 
 /// Everything an identification produced.
@@ -154,9 +154,9 @@ pub struct Identification {
 /// read them).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Predictions {
-    /// Steady radii at the fitted points [mm] (same order as `Identification::points`).
+    /// Steady radii at the fitted points \[mm\] (same order as `Identification::points`).
     pub points: Vec<[f64; 2]>,
-    /// Steady radii at the withheld points [mm].
+    /// Steady radii at the withheld points \[mm\].
     pub withheld: Vec<[f64; 2]>,
     /// (S_x, S_y) at the fitted points.
     pub stiffness: Vec<[f64; 2]>,

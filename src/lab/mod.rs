@@ -49,11 +49,11 @@ pub use truth::{Foreign, LabSwarm};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Noise {
-    /// Per-measurement standard deviation floor [mm] (r1, r2).
+    /// Per-measurement standard deviation floor \[mm\] (r1, r2).
     pub sd_mm: [f64; 2],
     /// Per-measurement standard deviation per mm of radius [-] (r1, r2): heteroscedastic.
     pub rel: [f64; 2],
-    /// Standard deviation of the per-visit offset [mm] (r1, r2).
+    /// Standard deviation of the per-visit offset \[mm\] (r1, r2).
     pub visit_sd_mm: [f64; 2],
     /// Probability that a frame is invalid (`valid` = 0).
     pub p_invalid: f64,
@@ -102,7 +102,7 @@ impl Noise {
         Ok(())
     }
 
-    /// Per-measurement standard deviation at radii r [mm].
+    /// Per-measurement standard deviation at radii r \[mm\].
     pub fn sd_at(&self, r: [f64; 2]) -> [f64; 2] {
         [
             self.sd_mm[0] + self.rel[0] * r[0].abs(),

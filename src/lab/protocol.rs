@@ -13,11 +13,11 @@ use serde::{Deserialize, Serialize};
 /// One operating point held and measured.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Visit {
-    /// Commanded z_m [mm].
+    /// Commanded z_m \[mm\].
     pub z_mm: f64,
-    /// Commanded frequency [Hz].
+    /// Commanded frequency \[Hz\].
     pub f_hz: f64,
-    /// Session times of the measurements [s] (increasing).
+    /// Session times of the measurements \[s\] (increasing).
     pub t_s: Vec<f64>,
 }
 
@@ -28,10 +28,10 @@ pub enum Protocol {
     /// Randomised operating-point grid with settle time and repeats (the seed's Sec. III-C:
     /// 50 points, 10 repeats each). Each pass visits every point once, in a fresh random order.
     Grid {
-        /// Distances [mm].
+        /// Distances \[mm\].
         #[serde(default = "seed_z")]
         z_mm: Vec<f64>,
-        /// Frequencies [Hz].
+        /// Frequencies \[Hz\].
         #[serde(default = "seed_f")]
         f_hz: Vec<f64>,
         /// Passes over the grid per session.
@@ -40,13 +40,13 @@ pub enum Protocol {
         /// Measurements per visit.
         #[serde(default = "ten")]
         repeats: usize,
-        /// Wait after an input change before the first measurement [s].
+        /// Wait after an input change before the first measurement \[s\].
         #[serde(default = "twenty")]
         settle_s: f64,
-        /// Time between measurements of a visit [s].
+        /// Time between measurements of a visit \[s\].
         #[serde(default = "one_f")]
         sample_s: f64,
-        /// Extra measurements during the approach, at these times after the input change [s]
+        /// Extra measurements during the approach, at these times after the input change \[s\]
         /// (each before `settle_s`): they show formation and transients.
         #[serde(default, skip_serializing_if = "Vec::is_empty")]
         approach_s: Vec<f64>,
@@ -54,22 +54,22 @@ pub enum Protocol {
     /// Frequency sweeps up then down at each distance, measured through each dwell
     /// (transients included).
     Sweep {
-        /// Distances [mm], swept in this order.
+        /// Distances \[mm\], swept in this order.
         #[serde(default = "sweep_z")]
         z_mm: Vec<f64>,
-        /// Lowest frequency [Hz].
+        /// Lowest frequency \[Hz\].
         #[serde(default = "one_f")]
         f_min_hz: f64,
-        /// Highest frequency [Hz].
+        /// Highest frequency \[Hz\].
         #[serde(default = "ten_f")]
         f_max_hz: f64,
-        /// Frequency step [Hz].
+        /// Frequency step \[Hz\].
         #[serde(default = "one_f")]
         f_step_hz: f64,
-        /// Time at each frequency [s].
+        /// Time at each frequency \[s\].
         #[serde(default = "fifteen")]
         dwell_s: f64,
-        /// Time between measurements [s].
+        /// Time between measurements \[s\].
         #[serde(default = "one_f")]
         sample_s: f64,
     },
@@ -78,16 +78,16 @@ pub enum Protocol {
         /// Number of steps per session.
         #[serde(default = "forty")]
         n_steps: usize,
-        /// z_m range [mm].
+        /// z_m range \[mm\].
         #[serde(default = "z_range")]
         z_range_mm: [f64; 2],
-        /// Frequency range [Hz].
+        /// Frequency range \[Hz\].
         #[serde(default = "f_range")]
         f_range_hz: [f64; 2],
-        /// Time at each setpoint [s].
+        /// Time at each setpoint \[s\].
         #[serde(default = "thirty")]
         dwell_s: f64,
-        /// Time between measurements [s].
+        /// Time between measurements \[s\].
         #[serde(default = "half")]
         sample_s: f64,
     },

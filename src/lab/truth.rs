@@ -24,30 +24,30 @@ use serde::{Deserialize, Serialize};
 pub enum Foreign {
     /// Logistic roll-off of the swarm's effective rotation frequency.
     PhaseLagLogistic {
-        /// Centre of the roll-off [Hz].
+        /// Centre of the roll-off \[Hz\].
         f_c_hz: f64,
-        /// Width of the roll-off [Hz].
+        /// Width of the roll-off \[Hz\].
         width_hz: f64,
         /// Fraction of the rotation lost far above f_c [-] (0..1).
         depth: f64,
     },
     /// Polynomial growth of the radii past z0.
     CohesionPoly {
-        /// Onset [mm].
+        /// Onset \[mm\].
         z0_mm: f64,
         /// Relative growth per mm^power, per axis [r1, r2].
         gain: [f64; 2],
         /// Power of the growth [-].
         power: f64,
-        /// Time constant with which the growth follows an input change [s].
+        /// Time constant with which the growth follows an input change \[s\].
         #[serde(default = "two")]
         tau_s: f64,
     },
     /// Dead time and first-order lag of the inputs the swarm sees.
     InputLag {
-        /// Time constant [s].
+        /// Time constant \[s\].
         tau_s: f64,
-        /// Dead time [s].
+        /// Dead time \[s\].
         #[serde(default)]
         delay_s: f64,
     },
@@ -58,40 +58,40 @@ pub enum Foreign {
     },
     /// True projection of the rotating ellipse onto a tilted image plane.
     CameraProjection {
-        /// Tilt of the image plane [deg].
+        /// Tilt of the image plane \[deg\].
         tilt_deg: f64,
-        /// Direction of the tilt axis in the swarm plane, from the r1 axis [deg].
+        /// Direction of the tilt axis in the swarm plane, from the r1 axis \[deg\].
         #[serde(default)]
         axis_deg: f64,
         /// Scale [-].
         #[serde(default = "one")]
         scale: f64,
-        /// Offset [mm].
+        /// Offset \[mm\].
         #[serde(default)]
         offset_mm: f64,
     },
     /// Centroid distance from the axis growing with depth (tilted rotation axis).
     AxisTilt {
-        /// Extra radial offset at z_ref [mm].
+        /// Extra radial offset at z_ref \[mm\].
         #[serde(default)]
         offset_mm: f64,
-        /// Tilt of the rotation axis [deg].
+        /// Tilt of the rotation axis \[deg\].
         tilt_deg: f64,
-        /// Distance at which the extra offset is `offset_mm` [mm].
+        /// Distance at which the extra offset is `offset_mm` \[mm\].
         #[serde(default = "z_ref")]
         z_ref_mm: f64,
     },
     /// A local change of the radii around one operating point that no candidate describes.
     Bump {
-        /// Centre z_m [mm].
+        /// Centre z_m \[mm\].
         z_mm: f64,
-        /// Centre frequency [Hz].
+        /// Centre frequency \[Hz\].
         f_hz: f64,
-        /// Width in z_m (SD) [mm].
+        /// Width in z_m (SD) \[mm\].
         width_z_mm: f64,
-        /// Width in f (SD) [Hz].
+        /// Width in f (SD) \[Hz\].
         width_f_hz: f64,
-        /// Change of r1, r2 at the centre [mm].
+        /// Change of r1, r2 at the centre \[mm\].
         amp_mm: [f64; 2],
     },
 }
@@ -197,7 +197,7 @@ impl Foreign {
 }
 
 /// The lab's swarm: truth plant, foreign effects and their state. Inputs are SI
-/// (z_m [m], omega [rad/s]), as for every plant in magswarm; radii are in mm.
+/// (z_m \[m\], omega [rad/s]), as for every plant in magswarm; radii are in mm.
 #[derive(Debug, Clone)]
 pub struct LabSwarm {
     model: Model,
@@ -214,7 +214,7 @@ pub struct LabSwarm {
 }
 
 impl LabSwarm {
-    /// A swarm formed at rest at (z_m [m], omega [rad/s]) at session time 0.
+    /// A swarm formed at rest at (z_m \[m\], omega [rad/s]) at session time 0.
     pub fn new(model: Model, foreign: Vec<Foreign>, z_m: f64, omega: f64) -> LabSwarm {
         let (z, f) = (z_m * 1e3, omega.abs() / std::f64::consts::TAU);
         let mut s = LabSwarm {
@@ -232,12 +232,12 @@ impl LabSwarm {
         s
     }
 
-    /// Session time [s].
+    /// Session time \[s\].
     pub fn time(&self) -> f64 {
         self.t
     }
 
-    /// Command new inputs (z_m [m], omega [rad/s]) from now on.
+    /// Command new inputs (z_m \[m\], omega [rad/s]) from now on.
     pub fn set_inputs(&mut self, z_m: f64, omega: f64) {
         let (z, f) = (z_m * 1e3, omega.abs() / std::f64::consts::TAU);
         let last = self.commands.last().copied();
@@ -320,7 +320,7 @@ impl LabSwarm {
         })
     }
 
-    /// Advance to session time `t_end` [s] under the commanded inputs.
+    /// Advance to session time `t_end` \[s\] under the commanded inputs.
     pub fn advance_to(&mut self, t_end: f64) -> Result<()> {
         let lag = self.foreign.iter().find_map(|f| match *f {
             Foreign::InputLag { tau_s, delay_s } => Some((tau_s, delay_s)),
@@ -353,7 +353,7 @@ impl LabSwarm {
         Ok(())
     }
 
-    /// The radii a perfect measurement at this instant reads [mm] (truth model with its
+    /// The radii a perfect measurement at this instant reads \[mm\] (truth model with its
     /// effects, then the foreign ones). `rng` draws the rotation phase of a projected frame.
     pub fn true_radii(&self, rng: &mut StdRng) -> [f64; 2] {
         let o = self.plant.outputs();
@@ -401,7 +401,7 @@ impl LabSwarm {
 }
 
 /// Principal radii (minor, major) of the image of an ellipse with radii `r` = (r1 along the
-/// swarm's x, r2 along y) turned by `phase` [rad], seen by a camera whose image plane is
+/// swarm's x, r2 along y) turned by `phase` \[rad\], seen by a camera whose image plane is
 /// tilted by `tilt_deg` about an in-plane axis at `axis_deg` from x (orthographic projection).
 pub fn project_ellipse(r: [f64; 2], phase: f64, tilt_deg: f64, axis_deg: f64) -> [f64; 2] {
     // Ellipse as x^T Q x = 1, Q = R diag(1/a^2, 1/b^2) R^T.

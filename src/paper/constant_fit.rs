@@ -33,7 +33,7 @@ pub struct FitResult {
     pub max_rel_error: f64,
     /// RMS of the relative equilibrium errors (both axes).
     pub rms_rel_error: f64,
-    /// Where the largest error is: z_m [mm], f [Hz].
+    /// Where the largest error is: z_m \[mm\], f \[Hz\].
     pub worst_at: [f64; 2],
     /// True when K_tau ended within 1 % (in decades) of its bound (see [`KTAU_DECADES`]).
     pub k_tau_at_bound: bool,

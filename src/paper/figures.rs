@@ -14,32 +14,32 @@ use super::table::{rows, Row};
 /// Magnet and dipole constants of the model.
 #[derive(Debug, Clone, Serialize)]
 pub struct MagnetFigures {
-    /// Sphere radius [mm].
+    /// Sphere radius \[mm\].
     pub radius_mm: f64,
-    /// Remanence B_r [T].
+    /// Remanence B_r \[T\].
     pub remanence_t: f64,
     /// Dipole moment |m| [A m^2].
     pub dipole_moment_a_m2: f64,
     /// mu_0 m / (4 pi) [T m^3].
     pub mu0_m_over_4pi_t_m3: f64,
-    /// Offset added to z_m to reach the swarm plane from the magnet surface [mm].
+    /// Offset added to z_m to reach the swarm plane from the magnet surface \[mm\].
     pub z_offset_mm: f64,
-    /// Lateral offset of the swarm from the rotation axis [mm].
+    /// Lateral offset of the swarm from the rotation axis \[mm\].
     pub lateral_offset_mm: f64,
-    /// Depth of the swarm plane below the magnet centre at the envelope's ends [mm].
+    /// Depth of the swarm plane below the magnet centre at the envelope's ends \[mm\].
     pub depth_range_mm: [f64; 2],
 }
 
 /// Where a radius is smallest along frequency, at one z_m.
 #[derive(Debug, Clone, Serialize)]
 pub struct FreqShape {
-    /// z_m [mm].
+    /// z_m \[mm\].
     pub z_m_mm: f64,
-    /// Frequency of the smallest r1 on the seed grid [Hz].
+    /// Frequency of the smallest r1 on the seed grid \[Hz\].
     pub r1_argmin_f_hz: f64,
     /// True when that minimum is not at 1 or 10 Hz (falling then rising).
     pub r1_interior: bool,
-    /// Frequency of the smallest r2 on the seed grid [Hz].
+    /// Frequency of the smallest r2 on the seed grid \[Hz\].
     pub r2_argmin_f_hz: f64,
     /// True when that minimum is interior.
     pub r2_interior: bool,
@@ -58,23 +58,23 @@ pub struct GridFigures {
     pub median_pointwise_s_ratio: f64,
     /// Median k_xx/k_yy over the grid [-].
     pub median_k_ratio: f64,
-    /// Smallest and largest r1 [mm].
+    /// Smallest and largest r1 \[mm\].
     pub r1_min_max_mm: [f64; 2],
-    /// Smallest and largest r2 [mm].
+    /// Smallest and largest r2 \[mm\].
     pub r2_min_max_mm: [f64; 2],
-    /// r1 range max - min [mm].
+    /// r1 range max - min \[mm\].
     pub r1_range_mm: f64,
-    /// r2 range max - min [mm].
+    /// r2 range max - min \[mm\].
     pub r2_range_mm: f64,
     /// r2 > r1 at every grid point.
     pub r2_gt_r1_everywhere: bool,
-    /// Smallest r2 - r1 [mm].
+    /// Smallest r2 - r1 \[mm\].
     pub worst_r2_minus_r1_mm: f64,
-    /// Where the smallest margin is (z_m [mm], f [Hz]).
+    /// Where the smallest margin is (z_m \[mm\], f \[Hz\]).
     pub worst_margin_at: [f64; 2],
     /// Both radii strictly increase with z_m at every grid frequency.
     pub radii_grow_with_z: bool,
-    /// Smallest increase of either radius between neighbouring z_m [mm].
+    /// Smallest increase of either radius between neighbouring z_m \[mm\].
     pub min_z_increment_mm: f64,
     /// Frequency shape per z_m.
     pub frequency_shape: Vec<FreqShape>,
@@ -85,15 +85,15 @@ pub struct GridFigures {
 /// Nearest reachable point of the map to one of the seed's closed-loop model points.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClosedLoopPoint {
-    /// Seed's (r1, r2) [mm].
+    /// Seed's (r1, r2) \[mm\].
     pub seed_mm: [f64; 2],
-    /// Nearest (r1, r2) on the map inside the envelope [mm].
+    /// Nearest (r1, r2) on the map inside the envelope \[mm\].
     pub nearest_mm: [f64; 2],
-    /// Inputs there: z_m [mm].
+    /// Inputs there: z_m \[mm\].
     pub z_m_mm: f64,
-    /// Inputs there: f [Hz].
+    /// Inputs there: f \[Hz\].
     pub f_hz: f64,
-    /// Euclidean distance in (r1, r2) [mm].
+    /// Euclidean distance in (r1, r2) \[mm\].
     pub distance_mm: f64,
 }
 
@@ -112,13 +112,13 @@ pub struct DynamicsFigures {
     pub stable_everywhere: bool,
     /// Points where the scheduled gain had to be clamped.
     pub clamped_points: usize,
-    /// Formation time constant range [s].
+    /// Formation time constant range \[s\].
     pub time_constant_s: [f64; 2],
     /// Scheduled K_b1 range.
     pub k_b1_range: [f64; 2],
     /// Scheduled K_b2 range.
     pub k_b2_range: [f64; 2],
-    /// B range [T].
+    /// B range \[T\].
     pub b_t: [f64; 2],
     /// g_z range [T/m].
     pub g_z_t_per_m: [f64; 2],
@@ -138,7 +138,7 @@ pub struct DynamicsFigures {
 /// frequency bin, compared with Phi.
 #[derive(Debug, Clone, Serialize)]
 pub struct CollapseFigures {
-    /// Noise standard deviations (r1, r2) [mm].
+    /// Noise standard deviations (r1, r2) \[mm\].
     pub sigma_mm: [f64; 2],
     /// Repeats per seed-grid point.
     pub repeats: usize,
@@ -163,7 +163,7 @@ pub struct PaperFigures {
     pub closed_loop: Vec<ClosedLoopPoint>,
     /// ODE (4) versus map.
     pub dynamics: DynamicsFigures,
-    /// Formation time constants [s] on the fine grid ([`fine_grid`]), tau_map[f][z_m].
+    /// Formation time constants \[s\] on the fine grid ([`fine_grid`]), `tau_map[f][z_m]`.
     /// Not serialised.
     #[serde(skip)]
     pub tau_map: Vec<Vec<f64>>,
@@ -203,7 +203,7 @@ pub(super) fn range(v: impl Iterator<Item = f64>) -> [f64; 2] {
     })
 }
 
-/// The fine envelope grid: z_m [mm] and f [Hz] values (41 x 46: 0.5 mm, 0.2 Hz).
+/// The fine envelope grid: z_m \[mm\] and f \[Hz\] values (41 x 46: 0.5 mm, 0.2 Hz).
 pub fn fine_grid(model: &Model) -> (Vec<f64>, Vec<f64>) {
     let e = &model.envelope;
     let (z0, z1) = (e.z_min_m * 1e3, e.z_max_m * 1e3);

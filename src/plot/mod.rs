@@ -31,7 +31,7 @@ pub use xy::{lines, lines_sized, pred_vs_meas, scatter_with_errorbars, time_pane
 use plotters::style::FontStyle;
 use std::sync::Once;
 
-/// Default image size [px] of single-panel plots.
+/// Default image size \[px\] of single-panel plots.
 pub const SIZE: (u32, u32) = (1000, 700);
 
 /// The bundled font.

@@ -15,7 +15,7 @@ pub fn lines(path: &Path, labels: &Labels, series: &[Series]) -> Result<()> {
     lines_sized(path, labels, series, SIZE)
 }
 
-/// [`lines`] with an explicit image size [px].
+/// [`lines`] with an explicit image size \[px\].
 pub fn lines_sized(
     path: &Path,
     labels: &Labels,

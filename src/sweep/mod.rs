@@ -39,7 +39,7 @@ use magswarm_model::{Model, Plant};
 use rayon::prelude::*;
 use serde::Deserialize;
 
-/// Where the scenario starts: formed at 8.5 mm, 4 Hz (z_m [m], omega [rad/s]).
+/// Where the scenario starts: formed at 8.5 mm, 4 Hz (z_m \[m\], omega [rad/s]).
 pub const START: (f64, f64) = magswarm_control::sim::SEED_START;
 
 /// Parameter uncertainty of a sweep.
@@ -226,16 +226,16 @@ pub struct RunResult {
     pub run: u64,
     /// The drawn parameters (order of [`Uncertainty::names`]).
     pub params: Vec<f64>,
-    /// RMS tracking error against the setpoint [mm] for r1, r2 (NaN if the run failed).
+    /// RMS tracking error against the setpoint \[mm\] for r1, r2 (NaN if the run failed).
     pub rmse_mm: [f64; 2],
-    /// Largest |r_i - r_i*| over the last 10 s of each segment [mm] (NaN if failed).
+    /// Largest |r_i - r_i*| over the last 10 s of each segment \[mm\] (NaN if failed).
     pub final_err_mm: f64,
     /// Why the run failed ("" when it did not).
     pub error: String,
 }
 
 /// The closed-loop scenario with the plant `plant_model` and the controller designed on
-/// `nominal`; returns (rmse r1, rmse r2, worst error over the last 10 s of each segment) [mm].
+/// `nominal`; returns (rmse r1, rmse r2, worst error over the last 10 s of each segment) \[mm\].
 pub fn track(
     nominal: &Model,
     plant_model: Model,

@@ -104,7 +104,7 @@ impl Drop for Threaded {
     }
 }
 
-/// What drives the emulated swarm: the inputs the devices report (z_m [mm], f [Hz]).
+/// What drives the emulated swarm: the inputs the devices report (z_m \[mm\], f \[Hz\]).
 pub type InputProbe = Arc<dyn Fn() -> Option<(f64, f64)> + Send + Sync>;
 
 /// The cell the loop writes the devices' inputs into.
@@ -118,7 +118,7 @@ pub fn command_probe() -> (InputCell, InputProbe) {
 }
 
 /// The emulated camera of the config: `magswarm_vision`'s camera filming a model plant that
-/// starts at equilibrium at `start` (z_m [mm], f [Hz]) and follows `probe`.
+/// starts at equilibrium at `start` (z_m \[mm\], f \[Hz\]) and follows `probe`.
 #[allow(clippy::too_many_arguments)]
 pub fn emulated(
     model: Model,
@@ -167,18 +167,18 @@ pub fn emulated(
     Box::new(EmulatedCamera::new(cfg, source))
 }
 
-/// Radii of a frame [mm], or why not.
+/// Radii of a frame \[mm\], or why not.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Radii {
-    /// r1 [mm] (the smaller).
+    /// r1 \[mm\] (the smaller).
     pub r1_mm: f64,
-    /// r2 [mm].
+    /// r2 \[mm\].
     pub r2_mm: f64,
-    /// Orientation [deg].
+    /// Orientation \[deg\].
     pub angle_deg: f64,
-    /// Centroid [px].
+    /// Centroid \[px\].
     pub cx_px: f64,
-    /// Centroid [px].
+    /// Centroid \[px\].
     pub cy_px: f64,
     /// Why the frame is invalid.
     pub invalid: Option<String>,

@@ -54,15 +54,15 @@ pub struct Robot {
     /// Dashboard port (29999; 0: no dashboard client).
     #[serde(default = "d_dash")]
     pub dashboard_port: u16,
-    /// Tool z (base frame) [m] at z_m = 0.
+    /// Tool z (base frame) \[m\] at z_m = 0.
     pub z_tcp_at_zero_m: f64,
-    /// RTDE output frequency [Hz] (e-Series: up to 500).
+    /// RTDE output frequency \[Hz\] (e-Series: up to 500).
     #[serde(default = "d_freq")]
     pub frequency_hz: f64,
-    /// No RTDE package for this long is a lost link [s].
+    /// No RTDE package for this long is a lost link \[s\].
     #[serde(default = "d_rtde_timeout")]
     pub timeout_s: f64,
-    /// URScript watchdog frequency on the heartbeat register [Hz].
+    /// URScript watchdog frequency on the heartbeat register \[Hz\].
     #[serde(default = "d_watchdog")]
     pub watchdog_hz: f64,
     /// Keys not known to the bridge.
@@ -92,7 +92,7 @@ pub struct StepperCfg {
     /// Maximum acceleration to set on the module (TMCL units; absent: leave the module's).
     #[serde(default)]
     pub max_acceleration: Option<i32>,
-    /// Reply timeout [s].
+    /// Reply timeout \[s\].
     #[serde(default = "d_reply_timeout")]
     pub reply_timeout_s: f64,
     /// Keys not known to the bridge.
@@ -108,18 +108,18 @@ pub struct CameraCfg {
     /// Replay: the frame folder.
     #[serde(default)]
     pub dir: Option<PathBuf>,
-    /// Pixel size in the swarm's plane [mm].
+    /// Pixel size in the swarm's plane \[mm\].
     pub mm_per_px: f64,
-    /// No frame for this long is a camera timeout [s].
+    /// No frame for this long is a camera timeout \[s\].
     #[serde(default = "d_cam_timeout")]
     pub timeout_s: f64,
     /// Emulated: frames per second.
     #[serde(default = "d_fps")]
     pub fps: f64,
-    /// Emulated: frame width [px].
+    /// Emulated: frame width \[px\].
     #[serde(default = "d_w")]
     pub width: u32,
-    /// Emulated: frame height [px].
+    /// Emulated: frame height \[px\].
     #[serde(default = "d_h")]
     pub height: u32,
     /// Emulated: the model of the virtual swarm (default: the paper model).
@@ -131,10 +131,10 @@ pub struct CameraCfg {
     /// Aravis: device id, serial number or IP (default: the first camera found).
     #[serde(default)]
     pub device: Option<String>,
-    /// Aravis: exposure time [us] (default: the camera's).
+    /// Aravis: exposure time \[us\] (default: the camera's).
     #[serde(default)]
     pub exposure_us: Option<f64>,
-    /// Aravis: sensor region `[x, y, w, h]` [px] (default: the full sensor).
+    /// Aravis: sensor region `[x, y, w, h]` \[px\] (default: the full sensor).
     #[serde(default)]
     pub region: Option<[i32; 4]>,
     /// Keys not known to the bridge.
@@ -145,9 +145,9 @@ pub struct CameraCfg {
 /// `[limits]`.
 #[derive(Debug, Clone, Deserialize)]
 pub struct LimitsCfg {
-    /// z_m envelope [mm].
+    /// z_m envelope \[mm\].
     pub z_m_mm: [f64; 2],
-    /// Frequency envelope [Hz].
+    /// Frequency envelope \[Hz\].
     pub f_hz: [f64; 2],
     /// z_m rate limit [mm/s].
     pub z_rate_mm_s: f64,
@@ -167,7 +167,7 @@ pub struct ControlCfg {
     /// The model the controller's feedforward and decoupling use (default: paper model).
     #[serde(default)]
     pub model: Option<PathBuf>,
-    /// Inputs at start (z_m [mm], f [Hz]) before the first plan row / controller step.
+    /// Inputs at start (z_m \[mm\], f \[Hz\]) before the first plan row / controller step.
     #[serde(default)]
     pub start: Option<[f64; 2]>,
     /// Keys not known to the bridge.
@@ -192,22 +192,22 @@ pub struct ShadowCfg {
 /// `[emulator]`: how `magswarm-bridge emulate` behaves.
 #[derive(Debug, Clone, Deserialize, Default)]
 pub struct EmulatorCfg {
-    /// Lag of the tool z behind its target [s].
+    /// Lag of the tool z behind its target \[s\].
     #[serde(default)]
     pub lag_s: Option<f64>,
-    /// Raise a protective stop this long after the first RTDE start [s].
+    /// Raise a protective stop this long after the first RTDE start \[s\].
     #[serde(default)]
     pub protective_stop_after_s: Option<f64>,
-    /// Drop the RTDE link this long after the first RTDE start [s].
+    /// Drop the RTDE link this long after the first RTDE start \[s\].
     #[serde(default)]
     pub drop_link_after_s: Option<f64>,
-    /// The stepper misbehaves this long after its first rotation [s].
+    /// The stepper misbehaves this long after its first rotation \[s\].
     #[serde(default)]
     pub stepper_fault_after_s: Option<f64>,
     /// How: "status" | "checksum" | "silent".
     #[serde(default)]
     pub stepper_fault: Option<String>,
-    /// The emulated camera (inside `run`) stops delivering frames after this time [s].
+    /// The emulated camera (inside `run`) stops delivering frames after this time \[s\].
     #[serde(default)]
     pub camera_stops_after_s: Option<f64>,
     /// Keys not known to the bridge.

@@ -168,9 +168,9 @@ pub struct Measured {
     pub frame: Frame,
     /// Its radii.
     pub radii: Radii,
-    /// The inputs in force while it was taken (z_m [mm], f [Hz]).
+    /// The inputs in force while it was taken (z_m \[mm\], f \[Hz\]).
     pub applied: (f64, f64),
-    /// z_m from the robot's reported pose [mm] (NaN in a dry run).
+    /// z_m from the robot's reported pose \[mm\] (NaN in a dry run).
     pub z_meas_mm: f64,
 }
 
@@ -196,7 +196,7 @@ pub struct Rig {
 
 impl Rig {
     /// Open every device (none but the camera in a dry run) and start the camera, with the
-    /// inputs `start` (z_m [mm], f [Hz]) sent at once.
+    /// inputs `start` (z_m \[mm\], f \[Hz\]) sent at once.
     pub fn open(
         cfg: &RigConfig,
         dry_run: bool,
@@ -271,12 +271,12 @@ impl Rig {
         Ok(rig)
     }
 
-    /// The inputs in force (z_m [mm], f [Hz]).
+    /// The inputs in force (z_m \[mm\], f \[Hz\]).
     pub fn in_force(&self) -> (f64, f64) {
         self.in_force
     }
 
-    /// Shape `req` (z_m [mm], f [Hz]) and send it; returns what was sent.
+    /// Shape `req` (z_m \[mm\], f \[Hz\]) and send it; returns what was sent.
     pub fn command(&mut self, req: (f64, f64)) -> Result<(f64, f64), Fault> {
         let now = Instant::now();
         let dt = now.duration_since(self.last_cmd_at).as_secs_f64();
@@ -350,7 +350,7 @@ impl Rig {
         }
     }
 
-    /// z_m from the robot's last reported pose [mm] (NaN in a dry run).
+    /// z_m from the robot's last reported pose \[mm\] (NaN in a dry run).
     pub fn z_meas_mm(&self) -> f64 {
         self.last_z_meas
     }

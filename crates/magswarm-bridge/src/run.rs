@@ -20,7 +20,7 @@ use crate::rig::{Poll, Rig};
 use crate::safety::{Envelope, Fault, FaultLatch};
 use crate::schedule::Schedule;
 
-/// A caller's law: (t [s], measured radii [mm] when the frame is valid) -> (z_m [mm], f [Hz]).
+/// A caller's law: (t \[s\], measured radii \[mm\] when the frame is valid) -> (z_m \[mm\], f \[Hz\]).
 pub type Law = Arc<std::sync::Mutex<dyn FnMut(f64, Option<[f64; 2]>) -> (f64, f64) + Send>>;
 
 /// What to run.
@@ -51,7 +51,7 @@ pub struct RunOptions {
     pub mode: Mode,
     /// The measurement log to write.
     pub log: PathBuf,
-    /// Run length [s] (default: the schedule's).
+    /// Run length \[s\] (default: the schedule's).
     pub duration: Option<f64>,
     /// Talk to no actuator.
     pub dry_run: bool,
@@ -93,7 +93,7 @@ pub struct RunReport {
     pub fault: Option<Fault>,
     /// Rows written.
     pub rows: usize,
-    /// Frame arrival -> command sent, per frame [s].
+    /// Frame arrival -> command sent, per frame \[s\].
     pub latencies_s: Vec<f64>,
     /// Frames whose measurement was invalid.
     pub invalid_frames: usize,

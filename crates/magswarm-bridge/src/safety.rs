@@ -117,9 +117,9 @@ impl FaultLatch {
 /// The envelope and rate limits, human units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Envelope {
-    /// z_m limits [mm].
+    /// z_m limits \[mm\].
     pub z_mm: [f64; 2],
-    /// Frequency limits [Hz].
+    /// Frequency limits \[Hz\].
     pub f_hz: [f64; 2],
     /// z_m rate [mm/s].
     pub z_rate_mm_s: f64,
@@ -141,9 +141,9 @@ impl From<&LimitsCfg> for Envelope {
 /// A shaped command.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Shaped {
-    /// z_m to send [mm].
+    /// z_m to send \[mm\].
     pub z_mm: f64,
-    /// Frequency to send [Hz].
+    /// Frequency to send \[Hz\].
     pub f_hz: f64,
     /// The request was outside the envelope (clamped).
     pub clamped: bool,
@@ -182,7 +182,7 @@ impl Shaper {
         self.last
     }
 
-    /// Shape a request (z_m [mm], f [Hz]) after `dt` seconds since the last command.
+    /// Shape a request (z_m \[mm\], f \[Hz\]) after `dt` seconds since the last command.
     pub fn shape(&mut self, z_mm: f64, f_hz: f64, dt: f64) -> Result<Shaped, Fault> {
         if !z_mm.is_finite() || !f_hz.is_finite() {
             return Err(Fault::NanCommand(format!("z_m = {z_mm} mm, f = {f_hz} Hz")));

@@ -138,7 +138,7 @@ pub trait Stepper: Send {
     fn rotate_hz(&mut self, f_hz: f64) -> Result<(), StepperError>;
     /// Stop the motor.
     fn stop(&mut self) -> Result<(), StepperError>;
-    /// Actual speed [Hz] as the driver reports it.
+    /// Actual speed \[Hz\] as the driver reports it.
     fn actual_hz(&mut self) -> Result<f64, StepperError>;
     /// A line describing the device (firmware, address).
     fn describe(&mut self) -> Result<String, StepperError>;
@@ -362,7 +362,7 @@ impl StepperThread {
         }
     }
 
-    /// Ask for a frequency [Hz].
+    /// Ask for a frequency \[Hz\].
     pub fn rotate_hz(&self, f_hz: f64) {
         let _ = self.tx.send(Some(f_hz));
     }

@@ -32,7 +32,7 @@ pub struct StepperSimConfig {
     pub reply_address: u8,
     /// Acceleration of the actual speed toward the target [velocity units/s].
     pub acceleration: f64,
-    /// Misbehave this long after the first rotation command [s].
+    /// Misbehave this long after the first rotation command \[s\].
     pub fault_after_s: Option<f64>,
     /// How.
     pub fault: StepperFault,

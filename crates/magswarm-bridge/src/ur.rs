@@ -106,13 +106,13 @@ impl Dashboard {
 /// Parameters of the servo program.
 #[derive(Debug, Clone, Copy)]
 pub struct ServoScript {
-    /// Tool z limits [m] (base frame): `z_tcp_at_zero_m + z_m` limits.
+    /// Tool z limits \[m\] (base frame): `z_tcp_at_zero_m + z_m` limits.
     pub z_min_m: f64,
-    /// Upper limit [m].
+    /// Upper limit \[m\].
     pub z_max_m: f64,
     /// Rate limit [m/s].
     pub z_rate_m_s: f64,
-    /// Watchdog frequency on the heartbeat register [Hz].
+    /// Watchdog frequency on the heartbeat register \[Hz\].
     pub watchdog_hz: f64,
 }
 

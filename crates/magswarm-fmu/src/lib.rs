@@ -34,23 +34,23 @@ pub const RESOURCE_MODEL: &str = "model.json";
 
 /// Value references of the interface variables.
 pub mod vr {
-    /// Input: magnet-swarm distance [m].
+    /// Input: magnet-swarm distance \[m\].
     pub const Z_M: u32 = 1;
     /// Input: field angular velocity [rad/s].
     pub const OMEGA_M: u32 = 2;
-    /// Output: radius r1 from ODE (4) [m].
+    /// Output: radius r1 from ODE (4) \[m\].
     pub const R1: u32 = 10;
-    /// Output: radius r2 from ODE (4) [m].
+    /// Output: radius r2 from ODE (4) \[m\].
     pub const R2: u32 = 11;
-    /// Output: steady map r1 [m].
+    /// Output: steady map r1 \[m\].
     pub const R1_SS: u32 = 12;
-    /// Output: steady map r2 [m].
+    /// Output: steady map r2 \[m\].
     pub const R2_SS: u32 = 13;
     /// Output: stiffness S_x.
     pub const S_X: u32 = 14;
     /// Output: stiffness S_y.
     pub const S_Y: u32 = 15;
-    /// Output: field magnitude [T].
+    /// Output: field magnitude \[T\].
     pub const B: u32 = 16;
     /// Output: axial gradient [T/m].
     pub const G_Z: u32 = 17;
@@ -66,9 +66,9 @@ pub mod vr {
     pub const DER_R2: u32 = 31;
     /// Parameter (Boolean): start on the steady map of the initial inputs.
     pub const SETTLE_AT_START: u32 = 40;
-    /// Parameter: initial r1 [m] when not settled.
+    /// Parameter: initial r1 \[m\] when not settled.
     pub const R1_START: u32 = 41;
-    /// Parameter: initial r2 [m] when not settled.
+    /// Parameter: initial r2 \[m\] when not settled.
     pub const R2_START: u32 = 42;
     /// Parameter (Boolean): confinement gains scheduled so that (4)'s equilibrium is the map.
     pub const SCHEDULED: u32 = 43;
@@ -80,7 +80,7 @@ pub mod vr {
 
 /// Default inputs: the seed's mid-envelope operating point (z_m 8.5 mm, f 4 Hz).
 pub const Z_START: f64 = 0.0085;
-/// Largest `z_m` accepted [m]: far beyond the envelope (23.5 mm) the field is numerically
+/// Largest `z_m` accepted \[m\]: far beyond the envelope (23.5 mm) the field is numerically
 /// zero and the model's outputs stop being numbers.
 pub const MAX_Z_M: f64 = 1.0;
 /// Largest `|omega_m|` accepted [rad/s] (about 1.6 kHz; the envelope ends at 10 Hz).

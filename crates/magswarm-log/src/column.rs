@@ -34,7 +34,7 @@ pub enum Column {
     R1Ref,
     /// `r2_ref_mm`
     R2Ref,
-    /// Unknown column: index into [`Log::extra_columns`] / [`LogRow::extra`].
+    /// Unknown column: index into [`Layout::extra_columns`] / [`crate::LogRow::extra`].
     Extra(usize),
 }
 

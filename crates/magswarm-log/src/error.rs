@@ -25,7 +25,7 @@ impl fmt::Display for LogProblem {
 /// A log that cannot be read, with every problem found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LogError {
-    /// File name or "<string>".
+    /// File name or `"<string>"`.
     pub source: String,
     /// All problems, in line order.
     pub problems: Vec<LogProblem>,

@@ -8,8 +8,8 @@
 //! t_s,z_m_mm,f_hz,r1_mm,r2_mm[,session][,valid][,r1_ref_mm][,r2_ref_mm][,anything else]
 //! ```
 //!
-//! Modules: [`column`] (which columns, in which order), [`row`] (one measurement),
-//! [`read`] (header, row and cross-row parsing), [`write`] (streaming writer), [`error`].
+//! Modules: [`column`](mod@column) (which columns, in which order), [`row`] (one measurement),
+//! [`read`] (header, row and cross-row parsing), [`write`](mod@write) (streaming writer), [`error`].
 //!
 //! # Rules of the reader
 //!

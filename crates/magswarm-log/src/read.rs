@@ -15,7 +15,7 @@ use crate::write::LogWriter;
 /// A parsed log.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Log {
-    /// File name (or "<string>") for messages.
+    /// File name (or `"<string>"`) for messages.
     pub source: String,
     /// Column layout of the file.
     pub layout: Layout,

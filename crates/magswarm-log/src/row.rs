@@ -7,21 +7,21 @@ pub struct LogRow {
     pub line: usize,
     /// Seconds since the start of the session.
     pub t_s: f64,
-    /// Commanded magnet-swarm distance [mm].
+    /// Commanded magnet-swarm distance \[mm\].
     pub z_m_mm: f64,
-    /// Commanded field frequency [Hz].
+    /// Commanded field frequency \[Hz\].
     pub f_hz: f64,
-    /// Measured r1 [mm] (None: column absent, or empty on a `valid` = 0 row).
+    /// Measured r1 \[mm\] (None: column absent, or empty on a `valid` = 0 row).
     pub r1_mm: Option<f64>,
-    /// Measured r2 [mm].
+    /// Measured r2 \[mm\].
     pub r2_mm: Option<f64>,
     /// Session name ("" when the log has no session column).
     pub session: String,
     /// False for `valid` = 0 rows (kept, ignored by fitting).
     pub valid: bool,
-    /// Controller setpoint for r1 [mm].
+    /// Controller setpoint for r1 \[mm\].
     pub r1_ref_mm: Option<f64>,
-    /// Controller setpoint for r2 [mm].
+    /// Controller setpoint for r2 \[mm\].
     pub r2_ref_mm: Option<f64>,
     /// Values of the unknown columns, verbatim (same order as `Layout::extra_columns`).
     pub extra: Vec<String>,

@@ -30,7 +30,7 @@ pub const KB_FLOOR: f64 = 1e-9;
 /// Coefficients of (4) at fixed inputs.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct InputTerms {
-    /// Inputs these terms were computed for (z_m [m], omega [rad/s]).
+    /// Inputs these terms were computed for (z_m \[m\], omega [rad/s]).
     pub z_m: f64,
     /// Field angular velocity [rad/s].
     pub omega: f64,
@@ -47,7 +47,7 @@ pub struct InputTerms {
 }
 
 impl InputTerms {
-    /// Compute the coefficients of (4) for inputs (z_m [m], omega [rad/s]).
+    /// Compute the coefficients of (4) for inputs (z_m \[m\], omega [rad/s]).
     pub fn new(model: &Model, z_m: f64, omega: f64) -> InputTerms {
         let d = &model.dynamics;
         let sp = steady::evaluate(model, z_m, omega);
@@ -124,7 +124,7 @@ impl InputTerms {
         [self.steady.s_x, self.steady.s_y]
     }
 
-    /// Right-hand side of (4) [mm/s] at state r [mm].
+    /// Right-hand side of (4) [mm/s] at state r \[mm\].
     #[inline]
     pub fn rhs(&self, model: &Model, r: [f64; 2]) -> [f64; 2] {
         let d = &model.dynamics;
@@ -173,7 +173,7 @@ impl InputTerms {
         ]
     }
 
-    /// Jacobian of (4) with respect to the inputs, d f_i / d(z_m [m], omega [rad/s]).
+    /// Jacobian of (4) with respect to the inputs, d f_i / d(z_m \[m\], omega [rad/s]).
     pub fn jac_input(&self, model: &Model, r: [f64; 2]) -> [[f64; 2]; 2] {
         let d = &model.dynamics;
         let s = self.s();
@@ -236,7 +236,7 @@ fn confine_d(gap: f64, beta: f64) -> f64 {
 /// Equilibrium analysis at one operating point.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Equilibrium {
-    /// The equilibrium found [mm].
+    /// The equilibrium found \[mm\].
     pub r: [f64; 2],
     /// Eigenvalues of the state Jacobian there (real parts, imaginary part) [1/s].
     pub eig: [(f64, f64); 2],
@@ -245,7 +245,7 @@ pub struct Equilibrium {
 }
 
 impl Equilibrium {
-    /// Slowest time constant [s] (the formation time scale), infinite if not stable.
+    /// Slowest time constant \[s\] (the formation time scale), infinite if not stable.
     pub fn time_constant(&self) -> f64 {
         let slow = self.eig[0].0.max(self.eig[1].0);
         if slow < 0.0 {

@@ -56,7 +56,7 @@ pub const NAMES: [&str; 6] = [
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PhaseLag {
-    /// Step-out frequency at the field B_ref [Hz].
+    /// Step-out frequency at the field B_ref \[Hz\].
     pub f_so_hz: f64,
     /// Exponent of the field in the step-out frequency [-] (1: magnetic torque ~ B).
     pub nu: f64,
@@ -85,7 +85,7 @@ const GH7: [(f64, f64); 7] = [
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CohesionLoss {
-    /// Onset distance z_c [mm].
+    /// Onset distance z_c \[mm\].
     pub z_c_mm: f64,
     /// Fading rate k [1/mm^2]; the fading length is 1/sqrt(k).
     pub k_per_mm2: f64,
@@ -101,7 +101,7 @@ pub struct CohesionLoss {
 pub struct FormationLag {
     /// Share of the footprint that forms through the slow mode [-].
     pub share: f64,
-    /// Time scale of the slow mode 1/omega_n [s].
+    /// Time scale of the slow mode 1/omega_n \[s\].
     pub tau_s: f64,
     /// Damping ratio of the slow mode [-] (< 1: oscillating formation).
     pub zeta: f64,
@@ -123,7 +123,7 @@ pub struct ParticleDrift {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CentroidOffset {
-    /// Extra radial distance of the centroid from the rotation axis [mm] (may be negative:
+    /// Extra radial distance of the centroid from the rotation axis \[mm\] (may be negative:
     /// closer to the axis).
     pub offset_mm: f64,
 }
@@ -135,9 +135,9 @@ pub struct CentroidOffset {
 pub struct CameraBias {
     /// Scale error (mm per px calibration) [-].
     pub scale: f64,
-    /// Offset [mm] (thresholding, blur).
+    /// Offset \[mm\] (thresholding, blur).
     pub offset_mm: f64,
-    /// Tilt of the image plane about the r1 axis [deg].
+    /// Tilt of the image plane about the r1 axis \[deg\].
     pub tilt_deg: f64,
 }
 
@@ -181,7 +181,8 @@ impl PhaseLag {
 /// `(w_eff, dw_eff/domega, dw_eff/dz_m)` given dw/domega and d ln w_so / dz_m.
 #[inline]
 fn adler(w: f64, dw: f64, w_so: f64, dln_dz: f64) -> (f64, f64, f64) {
-    if !(w > w_so) {
+    // Not above step-out (or a NaN rate): the swarm follows the drive.
+    if w.partial_cmp(&w_so) != Some(std::cmp::Ordering::Greater) {
         return (w, dw, 0.0);
     }
     let s = (w * w - w_so * w_so).sqrt();
@@ -200,7 +201,7 @@ impl CohesionLoss {
         k_per_mm2: 0.0,
     };
 
-    /// Confinement factor c(z) and dc/dz_m [1/m] at z_m [m].
+    /// Confinement factor c(z) and dc/dz_m [1/m] at z_m \[m\].
     #[inline]
     pub fn factor(&self, z_m: f64) -> (f64, f64) {
         let x = (z_m * 1e3 - self.z_c_mm).max(0.0);
@@ -217,7 +218,7 @@ impl FormationLag {
         zeta: 1.0,
     };
 
-    /// The footprint radius of one axis [mm]: the ODE (4) radius `r` blended with the slow
+    /// The footprint radius of one axis \[mm\]: the ODE (4) radius `r` blended with the slow
     /// mode's `x` by the share that forms through it.
     #[inline]
     pub fn blend(&self, r: f64, x: f64) -> f64 {
@@ -270,7 +271,7 @@ impl ParticleDrift {
     /// Neutral values: no drift.
     pub const NEUTRAL: ParticleDrift = ParticleDrift { rate_per_h: 0.0 };
 
-    /// Size factor at session time t [s].
+    /// Size factor at session time t \[s\].
     #[inline]
     pub fn factor(&self, t: f64) -> f64 {
         (self.rate_per_h * t / 3600.0).exp()
@@ -427,8 +428,8 @@ impl Effects {
         (g, o)
     }
 
-    /// The learned corrections over the time since the last input change: `tau` [s] since
-    /// it, `delta` the step of the observed steady map it made [mm]; added to the observed
+    /// The learned corrections over the time since the last input change: `tau` \[s\] since
+    /// it, `delta` the step of the observed steady map it made \[mm\]; added to the observed
     /// radii (zero when no term runs along that axis).
     #[inline]
     pub fn since_change(&self, tau: f64, delta: [f64; 2]) -> [f64; 2] {
@@ -453,7 +454,7 @@ impl Effects {
             .any(|x| x.axis == LearnedAxis::SinceChangeS)
     }
 
-    /// Measurement map at session time t [s]: observed `r_i = gain_i r_i + offset_i` (drift,
+    /// Measurement map at session time t \[s\]: observed `r_i = gain_i r_i + offset_i` (drift,
     /// camera, then the learned terms over session time).
     #[inline]
     pub fn observation(&self, t: f64) -> ([f64; 2], [f64; 2]) {
@@ -475,7 +476,7 @@ impl Effects {
         )
     }
 
-    /// Observed radii [mm] of physical radii `r` [mm] at session time t [s].
+    /// Observed radii \[mm\] of physical radii `r` \[mm\] at session time t \[s\].
     #[inline]
     pub fn observe(&self, r: [f64; 2], t: f64) -> [f64; 2] {
         if !self.observes() {
@@ -485,7 +486,7 @@ impl Effects {
         [g[0] * r[0] + o[0], g[1] * r[1] + o[1]]
     }
 
-    /// A steady point as observed at session time t [s] (radii and their Jacobian).
+    /// A steady point as observed at session time t \[s\] (radii and their Jacobian).
     pub fn observe_steady(&self, sp: &SteadyPoint, t: f64) -> SteadyPoint {
         if !self.observes() {
             return *sp;
@@ -502,7 +503,7 @@ impl Effects {
     }
 }
 
-/// The steady map (5)-(7) with every effect, as observed at session time t [s]:
+/// The steady map (5)-(7) with every effect, as observed at session time t \[s\]:
 /// what a measurement after complete formation gives.
 pub fn observed_steady(model: &Model, z_m: f64, omega: f64, t: f64) -> SteadyPoint {
     let sp = crate::steady::evaluate(model, z_m, omega);

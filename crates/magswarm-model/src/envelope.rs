@@ -9,13 +9,13 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Envelope {
-    /// Smallest validated z_m [m].
+    /// Smallest validated z_m \[m\].
     pub z_min_m: f64,
-    /// Largest validated z_m [m].
+    /// Largest validated z_m \[m\].
     pub z_max_m: f64,
-    /// Smallest validated field frequency [Hz].
+    /// Smallest validated field frequency \[Hz\].
     pub f_min_hz: f64,
-    /// Largest validated field frequency [Hz].
+    /// Largest validated field frequency \[Hz\].
     pub f_max_hz: f64,
 }
 
@@ -35,7 +35,7 @@ impl Default for Envelope {
 const EDGE_TOL: f64 = 1e-9;
 
 impl Envelope {
-    /// Flags for an input pair (z_m [m], omega [rad/s]).
+    /// Flags for an input pair (z_m \[m\], omega [rad/s]).
     pub fn classify(&self, z_m: f64, omega: f64) -> Validity {
         let f = omega.abs() / std::f64::consts::TAU;
         Validity {
@@ -47,7 +47,7 @@ impl Envelope {
         }
     }
 
-    /// Clamp inputs into the envelope (z_m [m], omega [rad/s]); keeps the sign of omega.
+    /// Clamp inputs into the envelope (z_m \[m\], omega [rad/s]); keeps the sign of omega.
     pub fn clamp(&self, z_m: f64, omega: f64) -> (f64, f64) {
         let f = (omega.abs() / std::f64::consts::TAU).clamp(self.f_min_hz, self.f_max_hz);
         let sign = if omega < 0.0 { -1.0 } else { 1.0 };

@@ -30,15 +30,15 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MagnetConfig {
-    /// Radius of the NdFeB sphere [m] (seed: 20 mm).
+    /// Radius of the NdFeB sphere \[m\] (seed: 20 mm).
     pub radius_m: f64,
-    /// Remanent flux density B_r [T] (N42 grade: 1.32 T, giving m ~ 35.2 A m^2).
+    /// Remanent flux density B_r \[T\] (N42 grade: 1.32 T, giving m ~ 35.2 A m^2).
     pub remanence_t: f64,
     /// Distance added to the commanded z_m to reach the swarm plane from the magnet
-    /// surface [m]: z_m is the gap surface-to-swarm minus this offset (tank lid, wall,
+    /// surface \[m\]: z_m is the gap surface-to-swarm minus this offset (tank lid, wall,
     /// water depth). The magnet centre is `radius_m + z_offset_m + z_m` above the swarm.
     pub z_offset_m: f64,
-    /// Lateral distance of the swarm centroid from the rotation axis [m], along y.
+    /// Lateral distance of the swarm centroid from the rotation axis \[m\], along y.
     pub lateral_offset_m: f64,
 }
 
@@ -60,7 +60,7 @@ impl MagnetConfig {
         self.remanence_t * (4.0 / 3.0) * std::f64::consts::PI * self.radius_m.powi(3) / mu0
     }
 
-    /// Depth of the swarm plane below the magnet centre for a commanded z_m [m].
+    /// Depth of the swarm plane below the magnet centre for a commanded z_m \[m\].
     pub fn depth(&self, z_m: f64) -> f64 {
         self.radius_m + self.z_offset_m + z_m
     }
@@ -120,7 +120,7 @@ impl MagnetConfig {
         k * k * (d * d + 2.5 * u) / (u + d * d).powi(4)
     }
 
-    /// Instantaneous dipole field vector [T] at (x, y) in the swarm plane for a moment at angle
+    /// Instantaneous dipole field vector \[T\] at (x, y) in the swarm plane for a moment at angle
     /// `theta` in the horizontal plane. The ground truth the averages are checked against.
     pub fn b_vector_at(&self, z_m: f64, x: f64, y: f64, theta: f64) -> [f64; 3] {
         let k = self.dipole_k();
@@ -141,7 +141,7 @@ impl MagnetConfig {
 /// Field quantities at the swarm centroid (SI), and their derivatives along z_m.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
 pub struct FieldAtSwarm {
-    /// RMS field magnitude over one turn [T].
+    /// RMS field magnitude over one turn \[T\].
     pub b: f64,
     /// Axial gradient magnitude |d|B|/dz| [T/m].
     pub g_z: f64,

@@ -13,9 +13,9 @@ use crate::Model;
 pub struct Tolerances {
     /// Relative tolerance per step.
     pub rtol: f64,
-    /// Absolute tolerance per step [mm].
+    /// Absolute tolerance per step \[mm\].
     pub atol: f64,
-    /// Largest internal step [s].
+    /// Largest internal step \[s\].
     pub h_max: f64,
     /// Most internal steps per communication step before giving up.
     pub max_steps: u32,
@@ -35,7 +35,7 @@ impl Default for Tolerances {
 /// Integrator memory carried between communication steps.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stepper {
-    /// Next internal step size to try [s].
+    /// Next internal step size to try \[s\].
     pub h_next: f64,
     /// Internal steps taken in total (for diagnostics and benches).
     pub steps: u64,

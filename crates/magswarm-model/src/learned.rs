@@ -9,10 +9,10 @@
 //!
 //! | axis | the variable | where it acts |
 //! | --- | --- | --- |
-//! | `f_hz` | `f (B(z_m)/B_ref)^-field_exponent` [Hz] (an onset that moves with the field) | the steady map (5)-(7), so the ODE (4) approaches it |
-//! | `z_m_mm` | z_m [mm] | the steady map |
-//! | `t_s` | session (plant) time [s] | the observed radii |
-//! | `since_change_s` | time since the last input change [s] | the observed radii |
+//! | `f_hz` | `f (B(z_m)/B_ref)^-field_exponent` \[Hz\] (an onset that moves with the field) | the steady map (5)-(7), so the ODE (4) approaches it |
+//! | `z_m_mm` | z_m \[mm\] | the steady map |
+//! | `t_s` | session (plant) time \[s\] | the observed radii |
+//! | `since_change_s` | time since the last input change \[s\] | the observed radii |
 //!
 //! | mode | value | acts as |
 //! | --- | --- | --- |
@@ -35,16 +35,16 @@ use crate::effects::NAMES;
 /// The variable a learned term runs along.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum LearnedAxis {
-    /// Field frequency [Hz], scaled by the field.
+    /// Field frequency \[Hz\], scaled by the field.
     #[serde(rename = "f_hz")]
     FHz,
-    /// Magnet distance [mm].
+    /// Magnet distance \[mm\].
     #[serde(rename = "z_m_mm")]
     ZmMm,
-    /// Session time [s].
+    /// Session time \[s\].
     #[serde(rename = "t_s")]
     TS,
-    /// Time since the last input change [s].
+    /// Time since the last input change \[s\].
     #[serde(rename = "since_change_s")]
     SinceChangeS,
 }
@@ -58,7 +58,7 @@ pub enum LearnedMode {
     /// Relative change.
     #[serde(rename = "relative")]
     Relative,
-    /// A deficit of the swarm's rotation rate [Hz].
+    /// A deficit of the swarm's rotation rate \[Hz\].
     #[serde(rename = "rate_hz")]
     RateHz,
     /// Fraction of the last input change's step.
@@ -216,7 +216,8 @@ impl LearnedTerm {
         if n == 0 {
             return ([0.0; 2], [0.0; 2]);
         }
-        if !(x > k[0]) {
+        // At or below the first knot (or a NaN argument): the first height.
+        if x.partial_cmp(&k[0]) != Some(std::cmp::Ordering::Greater) {
             return ([h[0][0], h[1][0]], [0.0; 2]);
         }
         if x >= k[n - 1] {

@@ -47,18 +47,18 @@ pub use params::{Confinement, Conventions, DynParams, LogBase, SteadyParams};
 pub use plant::{InputError, Plant, PlantOutputs, PlantSnapshot};
 pub use steady::SteadyPoint;
 
-/// Field frequency [Hz] to angular velocity [rad/s].
+/// Field frequency \[Hz\] to angular velocity [rad/s].
 pub fn hz_to_rad_s(f: f64) -> f64 {
     f * std::f64::consts::TAU
 }
 
-/// Angular velocity [rad/s] to field frequency [Hz].
+/// Angular velocity [rad/s] to field frequency \[Hz\].
 pub fn rad_s_to_hz(w: f64) -> f64 {
     w / std::f64::consts::TAU
 }
 
 /// The seed's 50-point validation grid: z_m 3.5, 8.5, ..., 23.5 mm x f 1..10 Hz, as
-/// (z_m [m], f [Hz]) pairs, z-major.
+/// (z_m \[m\], f \[Hz\]) pairs, z-major.
 pub fn seed_grid() -> Vec<(f64, f64)> {
     let mut v = Vec::with_capacity(50);
     for i in 0..5 {

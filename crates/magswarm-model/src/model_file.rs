@@ -57,7 +57,7 @@ pub struct Model {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{source_name}: {path}: {message}")]
 pub struct ModelError {
-    /// File name or "<string>".
+    /// File name or `"<string>"`.
     pub source_name: String,
     /// JSON path of the offending field, e.g. `steady.C_1` ("" for the whole document).
     pub path: String,

@@ -15,9 +15,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SteadyParams {
-    /// Axis gain of r1 [mm].
+    /// Axis gain of r1 \[mm\].
     pub C_1: f64,
-    /// Axis gain of r2 [mm].
+    /// Axis gain of r2 \[mm\].
     pub C_2: f64,
     /// Curvature gain of S_x [-].
     pub a_K1: f64,
@@ -49,9 +49,9 @@ pub struct SteadyParams {
     pub c_P: f64,
     /// Frequency-field interaction exponent [-].
     pub q_P: f64,
-    /// Reference frequency [Hz]; omega_ref = 2 pi f_ref.
+    /// Reference frequency \[Hz\]; omega_ref = 2 pi f_ref.
     pub f_ref: f64,
-    /// Field normalisation of the particle term [T] (not in Table I: reconstructed).
+    /// Field normalisation of the particle term \[T\] (not in Table I: reconstructed).
     pub B_ref: f64,
 }
 
@@ -126,9 +126,9 @@ pub struct DynParams {
     pub K_b2: f64,
     /// Confinement nonlinearity [-].
     pub beta: f64,
-    /// Packing limit of r1 [mm].
+    /// Packing limit of r1 \[mm\].
     pub r1_min: f64,
-    /// Packing limit of r2 [mm].
+    /// Packing limit of r2 \[mm\].
     pub r2_min: f64,
     /// Expansion gain [1/(mm s)].
     pub K_tau: f64,

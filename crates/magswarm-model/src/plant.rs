@@ -74,17 +74,17 @@ pub struct Plant {
 /// with [`Plant::from_snapshot`]. Serialisable, for FMU states and controller states.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct PlantSnapshot {
-    /// Inputs in force (z_m [m], omega [rad/s]).
+    /// Inputs in force (z_m \[m\], omega [rad/s]).
     pub inputs: [f64; 2],
-    /// State (r1, r2) [mm].
+    /// State (r1, r2) \[mm\].
     pub r: [f64; 2],
-    /// Time [s].
+    /// Time \[s\].
     pub t: f64,
-    /// Integrator step size to try next [s].
+    /// Integrator step size to try next \[s\].
     pub h_next: f64,
     /// Accepted and rejected internal steps.
     pub steps: [u64; 2],
-    /// Relative and absolute tolerance, largest internal step [s].
+    /// Relative and absolute tolerance, largest internal step \[s\].
     pub tol: [f64; 3],
     /// Most internal steps per communication step.
     pub max_steps: u32,
@@ -100,9 +100,9 @@ pub struct PlantSnapshot {
 /// What the plant reports at one instant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlantOutputs {
-    /// Dynamic radius r1 [mm], as observed (ODE (4) plus the enabled effects).
+    /// Dynamic radius r1 \[mm\], as observed (ODE (4) plus the enabled effects).
     pub r1: f64,
-    /// Dynamic radius r2 [mm], as observed (ODE (4) plus the enabled effects).
+    /// Dynamic radius r2 \[mm\], as observed (ODE (4) plus the enabled effects).
     pub r2: f64,
     /// The steady map at the current inputs (r1_ss, r2_ss, S, field, Jacobian), with the
     /// enabled effects (radii and Jacobian as observed at the current time).
@@ -110,7 +110,7 @@ pub struct PlantOutputs {
 }
 
 impl Plant {
-    /// A plant at rest on the steady map of the given inputs (z_m [m], omega [rad/s]).
+    /// A plant at rest on the steady map of the given inputs (z_m \[m\], omega [rad/s]).
     pub fn new(model: Model, z_m: f64, omega: f64) -> Plant {
         let terms = InputTerms::new(&model, z_m, omega);
         let r = terms.steady.radii();
@@ -139,7 +139,7 @@ impl Plant {
         &self.model
     }
 
-    /// Current inputs (z_m [m], omega [rad/s]).
+    /// Current inputs (z_m \[m\], omega [rad/s]).
     pub fn inputs(&self) -> (f64, f64) {
         (self.terms.z_m, self.terms.omega)
     }
@@ -176,23 +176,23 @@ impl Plant {
         self.form = [self.r[0], 0.0, self.r[1], 0.0];
     }
 
-    /// Set the state directly [mm] (the slow formation mode, if any, starts there at rest).
+    /// Set the state directly \[mm\] (the slow formation mode, if any, starts there at rest).
     pub fn set_state(&mut self, r: [f64; 2]) {
         self.r = r;
         self.form = [r[0], 0.0, r[1], 0.0];
     }
 
-    /// Radii state [mm].
+    /// Radii state \[mm\].
     pub fn state(&self) -> [f64; 2] {
         self.r
     }
 
-    /// Simulation time [s].
+    /// Simulation time \[s\].
     pub fn time(&self) -> f64 {
         self.t
     }
 
-    /// Set the simulation time [s] (FMI setup).
+    /// Set the simulation time \[s\] (FMI setup).
     pub fn set_time(&mut self, t: f64) {
         self.t = t;
     }
@@ -298,7 +298,7 @@ impl Plant {
         Ok(())
     }
 
-    /// Physical footprint radii [mm] before the measurement effects: the ODE (4) state, or,
+    /// Physical footprint radii \[mm\] before the measurement effects: the ODE (4) state, or,
     /// with `formation_lag`, its blend with the slow formation mode.
     pub fn footprint(&self) -> [f64; 2] {
         match &self.model.effects.formation_lag {

@@ -47,7 +47,7 @@ pub const TABLE_I: SteadyParams = SteadyParams {
 
 /// Reconstructed gradient exponent rho [-].
 pub const RHO: f64 = 0.5187;
-/// Reconstructed field normalisation B_ref [T].
+/// Reconstructed field normalisation B_ref \[T\].
 pub const B_REF: f64 = 0.1288;
 
 /// Reconstructed conventions of (7).

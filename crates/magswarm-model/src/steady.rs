@@ -19,9 +19,9 @@ pub struct SteadyPoint {
     pub s_y: f64,
     /// Frequency term Phi (6) [-].
     pub phi: f64,
-    /// Steady radius r1 (5) [mm].
+    /// Steady radius r1 (5) \[mm\].
     pub r1: f64,
-    /// Steady radius r2 (5) [mm].
+    /// Steady radius r2 (5) \[mm\].
     pub r2: f64,
     /// d(S_x, S_y)/d(z_m, omega_m): rows S_x, S_y; columns [1/m, s/rad].
     pub ds: [[f64; 2]; 2],
@@ -32,7 +32,7 @@ pub struct SteadyPoint {
 }
 
 impl SteadyPoint {
-    /// Radii as an array [mm].
+    /// Radii as an array \[mm\].
     pub fn radii(&self) -> [f64; 2] {
         [self.r1, self.r2]
     }
@@ -65,7 +65,7 @@ fn pow_d(x: f64, e: f64) -> (f64, f64) {
     }
 }
 
-/// Evaluate (5)-(7) and their Jacobian at (z_m [m], omega [rad/s]).
+/// Evaluate (5)-(7) and their Jacobian at (z_m \[m\], omega [rad/s]).
 pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     if model.effects.learned.iter().any(|t| t.on_steady_map()) {
         return with_learned(model, z_m, omega);

@@ -30,13 +30,13 @@
 //! | `samples` | output, Integer | | controller samples taken |
 //!
 //! Parameters ([`PARAMS`]; the `PidConfig` JSON field each one maps to in brackets):
-//! `sample_time` [s] (`sample_time_s`); gains, tunable while stepping (bumpless, through
-//! `Controller::set_gains`): `kp_r1`, `kp_r2` [1] (`gains.kp`), `ki_r1`, `ki_r2` [1/s]
-//! (`gains.ki`), `kd_r1`, `kd_r2` [s] (`gains.kd`), `derivative_filter` [s]
-//! (`gains.derivative_filter_s`), `tracking_time` [s] (`gains.tracking_time_s`), Boolean
-//! `conditional_integration`; limits: `z_min`, `z_max` [m], `f_min`, `f_max` [Hz],
-//! `z_rate` [m/s], `f_rate` [Hz/s] (`limits.*`); Boolean `feedforward`, `reference_filter` [s],
-//! `decoupler_damping` [1], `feasible_tol` [m]; the bumpless start `z_start` [m],
+//! `sample_time` \[s\] (`sample_time_s`); gains, tunable while stepping (bumpless, through
+//! `Controller::set_gains`): `kp_r1`, `kp_r2` \[1\] (`gains.kp`), `ki_r1`, `ki_r2` [1/s]
+//! (`gains.ki`), `kd_r1`, `kd_r2` \[s\] (`gains.kd`), `derivative_filter` \[s\]
+//! (`gains.derivative_filter_s`), `tracking_time` \[s\] (`gains.tracking_time_s`), Boolean
+//! `conditional_integration`; limits: `z_min`, `z_max` \[m\], `f_min`, `f_max` \[Hz\],
+//! `z_rate` [m/s], `f_rate` [Hz/s] (`limits.*`); Boolean `feedforward`, `reference_filter` \[s\],
+//! `decoupler_damping` \[1\], `feasible_tol` \[m\]; the bumpless start `z_start` \[m\],
 //! `omega_start` [rad/s] (the inputs in force when the loop closes, i.e. the plant's initial
 //! inputs); String `model_file` (a `magswarm-model/1` JSON: the plant the controller assumes;
 //! empty: `resources/model.json`, else the built-in paper model) and String `config_file`

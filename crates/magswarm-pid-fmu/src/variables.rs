@@ -13,29 +13,29 @@ pub const RESOURCE_CONFIG: &str = "pid.json";
 
 /// Value references.
 pub mod vr {
-    /// Input: setpoint r1* [m].
+    /// Input: setpoint r1* \[m\].
     pub const R1_REF: u32 = 1;
-    /// Input: setpoint r2* [m].
+    /// Input: setpoint r2* \[m\].
     pub const R2_REF: u32 = 2;
-    /// Input: measured r1 [m].
+    /// Input: measured r1 \[m\].
     pub const R1: u32 = 3;
-    /// Input: measured r2 [m].
+    /// Input: measured r2 \[m\].
     pub const R2: u32 = 4;
-    /// Output: commanded z_m [m].
+    /// Output: commanded z_m \[m\].
     pub const Z_M: u32 = 10;
     /// Output: commanded omega_m [rad/s].
     pub const OMEGA_M: u32 = 11;
-    /// Output: nearest reachable r1 [m].
+    /// Output: nearest reachable r1 \[m\].
     pub const R1_GOAL: u32 = 12;
-    /// Output: nearest reachable r2 [m].
+    /// Output: nearest reachable r2 \[m\].
     pub const R2_GOAL: u32 = 13;
-    /// Output: distance setpoint - goal [m].
+    /// Output: distance setpoint - goal \[m\].
     pub const TARGET_DISTANCE: u32 = 14;
-    /// Output: reference tracked at the last sample, r1 [m].
+    /// Output: reference tracked at the last sample, r1 \[m\].
     pub const R1_REFERENCE: u32 = 15;
-    /// Output: reference tracked at the last sample, r2 [m].
+    /// Output: reference tracked at the last sample, r2 \[m\].
     pub const R2_REFERENCE: u32 = 16;
-    /// Output: feedforward z_m [m].
+    /// Output: feedforward z_m \[m\].
     pub const Z_M_FF: u32 = 17;
     /// Output: feedforward omega_m [rad/s].
     pub const OMEGA_M_FF: u32 = 18;
@@ -47,7 +47,7 @@ pub mod vr {
     pub const RATE_LIMITED: u32 = 22;
     /// Output (Integer): samples taken.
     pub const SAMPLES: u32 = 23;
-    /// Parameter: z_m in force when the loop closes [m].
+    /// Parameter: z_m in force when the loop closes \[m\].
     pub const Z_START: u32 = 30;
     /// Parameter: omega_m in force when the loop closes [rad/s].
     pub const OMEGA_START: u32 = 31;
@@ -63,11 +63,11 @@ pub mod vr {
     pub const PARAM_BASE: u32 = 100;
 }
 
-/// Default setpoint (the seed scenario's first segment) [m].
+/// Default setpoint (the seed scenario's first segment) \[m\].
 pub const R_REF_START: [f64; 2] = [0.007, 0.011];
-/// Default measurement start values (the plant's formed radii near 8.5 mm, 4 Hz) [m].
+/// Default measurement start values (the plant's formed radii near 8.5 mm, 4 Hz) \[m\].
 pub const R_START: [f64; 2] = [0.008, 0.011];
-/// Default `z_start` [m] (the seed's start, z_m 8.5 mm).
+/// Default `z_start` \[m\] (the seed's start, z_m 8.5 mm).
 pub const Z_START: f64 = 0.0085;
 /// Default `omega_start` [rad/s] (4 Hz).
 pub const OMEGA_START: f64 = 4.0 * std::f64::consts::TAU;
@@ -102,16 +102,16 @@ pub(crate) const MM: f64 = 1e-3;
 /// second of work): a longer communication step is refused with a message naming this limit,
 /// so one call never blocks the importer for minutes.
 pub const MAX_SAMPLES_PER_STEP: u64 = 100_000;
-/// Smallest accepted `sample_time` [s].
+/// Smallest accepted `sample_time` \[s\].
 pub const MIN_SAMPLE_TIME: f64 = 1e-6;
-/// Largest accepted magnitude of a radius input (`r1`, `r2`, `r1_ref`, `r2_ref`) [m]: the
+/// Largest accepted magnitude of a radius input (`r1`, `r2`, `r1_ref`, `r2_ref`) \[m\]: the
 /// swarm is millimetres across, so anything beyond a metre is a broken signal.
 pub const MAX_RADIUS: f64 = 1.0;
-/// Largest accepted magnitude of `z_start` [m].
+/// Largest accepted magnitude of `z_start` \[m\].
 pub const MAX_Z_START: f64 = 1.0;
 /// Largest accepted magnitude of `omega_start` [rad/s].
 pub const MAX_OMEGA_START: f64 = 1e5;
-/// Largest accepted magnitude of the experiment's start time [s].
+/// Largest accepted magnitude of the experiment's start time \[s\].
 pub const MAX_TIME: f64 = 1e12;
 
 /// Whether every numeric parameter of `cfg` lies in its [`ParamSpec::range`] and the

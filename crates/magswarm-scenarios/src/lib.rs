@@ -24,9 +24,9 @@ use magswarm_model::{hz_to_rad_s, steady, Model};
 use rand::{seq::SliceRandom, RngExt, SeedableRng};
 use rand_distr::{Distribution, StandardNormal};
 
-/// The seed's grid of distances [mm].
+/// The seed's grid of distances \[mm\].
 pub const GRID_Z: [f64; 5] = [3.5, 8.5, 13.5, 18.5, 23.5];
-/// The seed's grid of frequencies [Hz].
+/// The seed's grid of frequencies \[Hz\].
 pub const GRID_F: [f64; 10] = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0];
 
 /// How the operating points are visited.
@@ -54,14 +54,14 @@ impl Protocol {
 /// A foreign shape of an effect (or an anomaly, or nothing).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Shape {
-    /// A band of r2 around `f0` [Hz] at every z_m (Gaussian in f).
+    /// A band of r2 around `f0` \[Hz\] at every z_m (Gaussian in f).
     BandR2 { f0: f64 },
-    /// A tanh roll-off of the drive above `f0` [Hz]: both radii grow in proportion.
+    /// A tanh roll-off of the drive above `f0` \[Hz\]: both radii grow in proportion.
     DriveRollOff { f0: f64 },
     /// A step-out whose onset moves with distance: above `f0 + slope (z - 3.5)` the radii
     /// grow linearly with the excess frequency.
     MovingKnee { f0: f64, slope: f64 },
-    /// Radii growing past `z0` [mm] linearly.
+    /// Radii growing past `z0` \[mm\] linearly.
     LinearOnset { z0: f64 },
     /// Radii growing past `z0` exponentially (length `len` mm).
     ExpOnset { z0: f64, len: f64 },
@@ -205,7 +205,7 @@ impl Scenario {
 
     /// The operating points in visiting order.
     fn visits(&self, withheld: bool) -> Vec<(f64, f64)> {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(self.seed ^ u64::from(withheld) * 0xBEEF);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(self.seed ^ (u64::from(withheld) * 0xBEEF));
         if withheld {
             let mut v: Vec<(f64, f64)> = Vec::new();
             for z in [6.0, 11.0, 16.0, 21.0] {
@@ -386,10 +386,10 @@ impl Lab {
                         r[1] += 2.0 * a[1];
                     }
                 }
-                Shape::DipR1 { z0, f0 } => {
-                    if (z - z0).abs() < 1e-6 && (f >= f0 - 1e-6 && f <= f0 + 1.0 + 1e-6) {
-                        r[0] -= 3.0 * a[0];
-                    }
+                Shape::DipR1 { z0, f0 }
+                    if (z - z0).abs() < 1e-6 && (f >= f0 - 1e-6 && f <= f0 + 1.0 + 1e-6) =>
+                {
+                    r[0] -= 3.0 * a[0];
                 }
                 _ => {}
             }
@@ -498,50 +498,43 @@ pub fn scenarios(seed: u64) -> Vec<Scenario> {
     let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
     let mut u = |a: f64, b: f64| a + (b - a) * rng.random::<f64>();
     let protocols = [Protocol::GridOnce, Protocol::GridTwice, Protocol::FarSteps];
-    let mut shapes: Vec<Shape> = Vec::new();
-    let mut draws = |k: usize, f: &mut dyn FnMut(&mut dyn FnMut(f64, f64) -> f64) -> Shape| {
-        let mut out = Vec::new();
-        for _ in 0..k {
-            out.push(f(&mut u));
-        }
-        out
-    };
-    shapes.extend(draws(1, &mut |u| Shape::BandR2 {
-        f0: u(4.5, 6.5).round() + 0.5,
-    }));
-    shapes.extend(draws(1, &mut |u| Shape::DriveRollOff { f0: u(5.0, 7.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::MovingKnee {
-        f0: u(4.0, 6.0),
-        slope: u(0.05, 0.15),
-    }));
-    shapes.extend(draws(1, &mut |u| Shape::LinearOnset { z0: u(11.0, 16.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::ExpOnset {
-        z0: u(8.0, 13.0),
-        len: u(4.0, 8.0),
-    }));
-    shapes.extend(draws(1, &mut |u| Shape::LogisticOnset {
-        z0: u(15.0, 19.0),
-        w: u(1.0, 2.5),
-    }));
-    shapes.push(Shape::LinearLoss);
-    shapes.push(Shape::SqrtLoss);
-    shapes.extend(draws(1, &mut |u| Shape::SuddenLoss { at: u(0.3, 0.7) }));
-    shapes.extend(draws(1, &mut |u| Shape::SaturatingGrowth {
-        frac: u(0.2, 0.5),
-    }));
-    shapes.extend(draws(1, &mut |u| Shape::SlowMode { tau: u(5.0, 12.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::Ringing {
-        period: u(3.0, 6.0),
-        tau: u(4.0, 10.0),
-    }));
-    shapes.extend(draws(1, &mut |u| Shape::DeadTime { delay: u(3.0, 6.0) }));
-    shapes.extend(draws(1, &mut |u| Shape::OffAxis {
-        offset: u(3.0, 5.0),
-    }));
-    shapes.extend(draws(1, &mut |u| Shape::TiltedAxis {
-        offset: u(5.0, 8.0),
-    }));
-    shapes.push(Shape::Eccentric);
+    // One draw of each shape's location and time scale per benchmark seed.
+    let shapes: Vec<Shape> = vec![
+        Shape::BandR2 {
+            f0: u(4.5, 6.5).round() + 0.5,
+        },
+        Shape::DriveRollOff { f0: u(5.0, 7.0) },
+        Shape::MovingKnee {
+            f0: u(4.0, 6.0),
+            slope: u(0.05, 0.15),
+        },
+        Shape::LinearOnset { z0: u(11.0, 16.0) },
+        Shape::ExpOnset {
+            z0: u(8.0, 13.0),
+            len: u(4.0, 8.0),
+        },
+        Shape::LogisticOnset {
+            z0: u(15.0, 19.0),
+            w: u(1.0, 2.5),
+        },
+        Shape::LinearLoss,
+        Shape::SqrtLoss,
+        Shape::SuddenLoss { at: u(0.3, 0.7) },
+        Shape::SaturatingGrowth { frac: u(0.2, 0.5) },
+        Shape::SlowMode { tau: u(5.0, 12.0) },
+        Shape::Ringing {
+            period: u(3.0, 6.0),
+            tau: u(4.0, 10.0),
+        },
+        Shape::DeadTime { delay: u(3.0, 6.0) },
+        Shape::OffAxis {
+            offset: u(3.0, 5.0),
+        },
+        Shape::TiltedAxis {
+            offset: u(5.0, 8.0),
+        },
+        Shape::Eccentric,
+    ];
     let mut out = Vec::new();
     let mut id = 0;
     let mut push = |protocol, truths: Vec<Truth>, out: &mut Vec<Scenario>| {
@@ -697,7 +690,10 @@ mod tests {
                 .filter(|t| t.shape.effect() == e)
                 .map(|t| t.shape.label())
                 .collect();
-            assert!(shapes.len() >= 3, "{e}: at least 3 foreign shapes: {shapes:?}");
+            assert!(
+                shapes.len() >= 3,
+                "{e}: at least 3 foreign shapes: {shapes:?}"
+            );
         }
         assert!(a.iter().filter(|s| s.truths.is_empty()).count() >= 18);
     }

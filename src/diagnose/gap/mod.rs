@@ -1,7 +1,7 @@
 //! Is there a gap, and where: lack of fit against the pure error of the repeats, residual
 //! structure over the inputs and over time, and the regions where it lies.
 //!
-//! Residuals are *measured minus model* [mm]. The unit of every test is the visit (rows of one
+//! Residuals are *measured minus model* \[mm\]. The unit of every test is the visit (rows of one
 //! visit share a visit-to-visit error and are not independent):
 //!
 //! - **lack of fit** (reported; in the decision only when the pure error comes from repeat
@@ -27,7 +27,7 @@
 //! trimmed of edge slices that carry no residual, and reported with a p-value corrected for
 //! the number of boxes searched.
 //!
-//! This module holds the tests; [`regions`] the localisation.
+//! This module holds the tests; `regions.rs` the localisation.
 
 use super::data::{Dataset, PureError};
 use super::stats;
@@ -39,7 +39,7 @@ pub use regions::*;
 /// Per-visit residual summary.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VisitRes {
-    /// Mean residual of the settled rows (all rows when none is settled) [mm].
+    /// Mean residual of the settled rows (all rows when none is settled) \[mm\].
     pub e: Vec<[f64; 2]>,
     /// Rows averaged.
     pub n: Vec<usize>,
@@ -99,7 +99,7 @@ pub struct GapTests {
     /// Families significant at alpha after correction: "lack_of_fit", "inputs", "drift",
     /// "formation".
     pub families: Vec<&'static str>,
-    /// Robust SD of a visit residual around the smooth structure, per axis [mm].
+    /// Robust SD of a visit residual around the smooth structure, per axis \[mm\].
     pub visit_sd: [f64; 2],
 }
 
@@ -212,6 +212,7 @@ fn drift_stat(t: &[f64], y: &[f64]) -> f64 {
 }
 
 /// Run the family tests. `n_free` is the number of free steady parameters of the baseline.
+#[allow(clippy::too_many_arguments)]
 pub fn tests(
     ds: &Dataset,
     res: &[[f64; 2]],

@@ -25,15 +25,15 @@ pub struct Region {
     pub kind: Kind,
     /// Axis (0: r1, 1: r2).
     pub axis: usize,
-    /// z_m range [mm].
+    /// z_m range \[mm\].
     pub z: (f64, f64),
-    /// f range [Hz].
+    /// f range \[Hz\].
     pub f: (f64, f64),
-    /// Session-time range [s] (drift regions).
+    /// Session-time range \[s\] (drift regions).
     pub t: Option<(f64, f64)>,
-    /// Time since the input change [s] (formation regions).
+    /// Time since the input change \[s\] (formation regions).
     pub since: Option<(f64, f64)>,
-    /// Mean residual (measured - model) [mm]; for formation regions the signed lag contrast.
+    /// Mean residual (measured - model) \[mm\]; for formation regions the signed lag contrast.
     pub mean: f64,
     /// p-value corrected for the search.
     pub p: f64,

@@ -1,7 +1,7 @@
 //! The gap report: `DIR/report.json` (fields fixed by CONTRACTS.md, plus evidence),
 //! `DIR/baseline.json`, `DIR/augmented.json`, `DIR/report.md` and its figures. Everything is
 //! rendered from the [`Diagnosis`]; nothing is recomputed here except the residual tables the
-//! figures draw. `report.md` is written by [`markdown`], its figures by [`figures`].
+//! figures draw. `report.md` is written by `markdown.rs`, its figures by `figures.rs`.
 
 use super::gap::{self, Kind, Region};
 use super::{candidates, Diagnosis, Rmse};

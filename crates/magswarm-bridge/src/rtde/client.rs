@@ -338,15 +338,15 @@ pub const OUTPUTS: [&str; 5] = [
     "safety_mode",
     "runtime_state",
 ];
-/// What the bridge writes: the tool's target z [m] and the heartbeat counter.
+/// What the bridge writes: the tool's target z \[m\] and the heartbeat counter.
 pub const INPUTS: [&str; 2] = ["input_double_register_24", "input_int_register_24"];
 
 /// The latest robot state the reader thread saw.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RobotState {
-    /// Controller timestamp [s].
+    /// Controller timestamp \[s\].
     pub timestamp: f64,
-    /// Tool pose in the base frame (x, y, z [m], rotation vector [rad]).
+    /// Tool pose in the base frame (x, y, z \[m\], rotation vector \[rad\]).
     pub tcp_pose: [f64; 6],
     /// `robot_mode`.
     pub robot_mode: i32,
@@ -445,7 +445,7 @@ impl UrLink {
         None
     }
 
-    /// Write the tool's target z [m] and the next heartbeat. The caller has already clamped
+    /// Write the tool's target z \[m\] and the next heartbeat. The caller has already clamped
     /// `tcp_z_m` to the envelope (the URScript clamps again).
     pub fn command(&mut self, tcp_z_m: f64) -> io::Result<()> {
         self.heartbeat = self.heartbeat.wrapping_add(1).max(1);

@@ -188,7 +188,7 @@ impl VarType {
         })
     }
 
-    /// Encoded size [bytes].
+    /// Encoded size \[bytes\].
     pub fn size(self) -> usize {
         match self {
             VarType::Bool | VarType::Uint8 => 1,

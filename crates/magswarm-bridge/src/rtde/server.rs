@@ -19,24 +19,24 @@ use super::proto::{self, pkt, robot_mode, runtime_state, safety_mode, Value, Var
 /// How the emulated robot behaves.
 #[derive(Debug, Clone)]
 pub struct RobotSimConfig {
-    /// Tool pose at start (base frame; z [m]).
+    /// Tool pose at start (base frame; z \[m\]).
     pub start_pose: [f64; 6],
-    /// First-order lag of the tool z behind the program's target [s].
+    /// First-order lag of the tool z behind the program's target \[s\].
     pub lag_s: f64,
-    /// z limits of the tool [m] used when no script was uploaded (the program is already
+    /// z limits of the tool \[m\] used when no script was uploaded (the program is already
     /// running).
     pub z_limits_m: [f64; 2],
     /// Rate limit [m/s] used when no script was uploaded.
     pub z_rate_m_s: f64,
-    /// Watchdog frequency [Hz] used when no script was uploaded (0: none).
+    /// Watchdog frequency \[Hz\] used when no script was uploaded (0: none).
     pub watchdog_hz: f64,
     /// The program is already loaded and playing (no script upload expected).
     pub program_running: bool,
     /// The robot starts powered off (a dashboard client must power on and release brakes).
     pub start_powered_off: bool,
-    /// Raise a protective stop this long after the first RTDE start [s].
+    /// Raise a protective stop this long after the first RTDE start \[s\].
     pub protective_stop_after_s: Option<f64>,
-    /// Drop every RTDE connection (and refuse new ones) this long after the first start [s].
+    /// Drop every RTDE connection (and refuse new ones) this long after the first start \[s\].
     pub drop_link_after_s: Option<f64>,
 }
 
@@ -394,7 +394,7 @@ impl UrEmulator {
             .unwrap_or_default()
     }
 
-    /// Current tool z [m].
+    /// Current tool z \[m\].
     pub fn tool_z(&self) -> f64 {
         self.sim.lock().map(|s| s.pose[2]).unwrap_or(f64::NAN)
     }
