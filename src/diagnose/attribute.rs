@@ -243,7 +243,7 @@ impl<'a> Linear<'a> {
         // scaled, and stretched in time, `since d/dsince`). A formation effect must beat what
         // refitting the baseline's dynamics would do.
         // And a first-order approach of any size at time constants around the baseline's own
-        // (half, equal, twice): another rig's fast formation may follow another law than ODE
+        // (half and equal): another rig's fast formation may follow another law than ODE
         // (4) without being a formation effect.
         let tau_b = {
             let mut t: Vec<f64> = ds
@@ -268,7 +268,7 @@ impl<'a> Linear<'a> {
         let mut extra = DMatrix::zeros(2 * n, 10);
         for i in 0..n {
             let st = step(i);
-            for (k, c) in [0.5, 1.0, 1.5].into_iter().enumerate() {
+            for (k, c) in [0.5, 1.0].into_iter().enumerate() {
                 let e = (-ds.rows[i].since / (c * tau_b)).exp();
                 for ax in 0..2 {
                     extra[(2 * i + ax, 4 + 2 * k + ax)] = w[ax] * st[ax] * e;
