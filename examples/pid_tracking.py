@@ -19,7 +19,7 @@ usage: python examples/pid_tracking.py --fmu target/fmu/MagSwarm.fmu --out LOG.c
            [--segments 60:7:11,60:8:11,60:9:11] [--plot fig.png]
 
 Needs fmpy and numpy; the plot needs matplotlib (skipped with a note when it is missing).
-The log is the measurement log of CONTRACTS.md (t_s,z_m_mm,f_hz,r1_mm,r2_mm,r1_ref_mm,r2_ref_mm)
+The log is the measurement log of docs/log-format.md (t_s,z_m_mm,f_hz,r1_mm,r2_mm,r1_ref_mm,r2_ref_mm)
 plus r1_goal_mm, r2_goal_mm (nearest reachable radii) and target_feasible (0/1).
 """
 
@@ -262,7 +262,7 @@ def main(argv=None) -> int:
     ap.add_argument("--fmu", type=pathlib.Path, default=pathlib.Path("target/fmu/MagSwarm.fmu"),
                     help="plant FMU (default: %(default)s)")
     ap.add_argument("--out", type=pathlib.Path, default=pathlib.Path("target/demo/pid_tracking_fmpy.csv"),
-                    help="measurement log to write, CONTRACTS.md format (default: %(default)s)")
+                    help="measurement log to write, docs/log-format.md format (default: %(default)s)")
     ap.add_argument("--pid-fmu", type=pathlib.Path, default=None,
                     help="controller FMU (default: MagSwarmPID.fmu beside --fmu)")
     ap.add_argument("--config", type=pathlib.Path, default=None,

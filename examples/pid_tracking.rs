@@ -15,7 +15,7 @@
 //! bumplessly at the plant's initial inputs (8.5 mm, 4 Hz) and the first measurement. This is
 //! the order `examples/pid_tracking.py` uses with `MagSwarmPID.fmu`, so the two logs agree.
 //!
-//! The log is the measurement log of CONTRACTS.md with `r1_ref_mm`, `r2_ref_mm`, plus the
+//! The log is the measurement log of docs/log-format.md with `r1_ref_mm`, `r2_ref_mm`, plus the
 //! extra columns `r1_goal_mm`, `r2_goal_mm` (the nearest reachable radii the loop settles on)
 //! and `target_feasible` (0/1).
 
@@ -36,7 +36,7 @@ pub struct Args {
     /// The plant FMU.
     #[arg(long, default_value = "target/fmu/MagSwarm.fmu")]
     pub fmu: PathBuf,
-    /// Measurement log to write (CSV, CONTRACTS.md).
+    /// Measurement log to write (CSV, docs/log-format.md).
     #[arg(long, default_value = "target/demo/pid_tracking.csv")]
     pub out: PathBuf,
     /// Controller configuration (magswarm-pid/1 JSON; default the library's).
@@ -116,7 +116,7 @@ pub fn run(
     })
 }
 
-/// Write the measurement log (CONTRACTS.md columns, setpoints, goal and feasibility extras).
+/// Write the measurement log (docs/log-format.md columns, setpoints, goal and feasibility extras).
 pub fn write_log(path: &Path, run: &Run) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;

@@ -132,3 +132,48 @@ fn every_library_module_is_named() {
         "modules of src/lib.rs docs/architecture.md does not name: {unnamed:?}"
     );
 }
+
+/// What the project relies on from outside is described in its own docs: no source file
+/// cites a contracts file the repository does not hold.
+#[test]
+fn no_source_cites_a_file_outside_the_repository() {
+    fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            let name = p.file_name().unwrap().to_string_lossy().to_string();
+            if p.is_dir() {
+                if !matches!(name.as_str(), "target" | ".git" | ".venv" | "node_modules") {
+                    walk(&p, out);
+                }
+            } else if [".rs", ".py", ".sh", ".toml"]
+                .iter()
+                .any(|x| name.ends_with(x))
+            {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    for d in [
+        "src",
+        "crates",
+        "tests",
+        "examples",
+        "scripts",
+        "packaging",
+        "benches",
+    ] {
+        walk(&root().join(d), &mut files);
+    }
+    let needle = ["CONTRACTS", ".md"].concat();
+    let citing: Vec<String> = files
+        .iter()
+        .filter(|f| {
+            std::fs::read_to_string(f)
+                .map(|s| s.contains(&needle))
+                .unwrap_or(false)
+        })
+        .map(|f| f.display().to_string())
+        .collect();
+    assert!(citing.is_empty(), "sources citing {needle}: {citing:?}");
+}

@@ -134,7 +134,7 @@ fn seed_scenario_through_the_fmu_settles_on_the_nearest_reachable_radii() {
     // nearest reachable ones), and the harness says so.
     assert!(run.feasible.iter().all(|f| !f));
 
-    // The log follows CONTRACTS.md and reads back.
+    // The log follows docs/log-format.md and reads back.
     let path = fmu_common::scratch_dir().join("pid_tracking.csv");
     harness::write_log(&path, &run).unwrap();
     let log = magswarm::log::Log::read(&path).expect("contract log");

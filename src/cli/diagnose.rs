@@ -5,7 +5,7 @@ use std::path::PathBuf;
 /// Arguments of `magswarm diagnose`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct DiagnoseArgs {
-    /// Measurement log (CONTRACTS.md format) the baseline and the candidates are fitted to.
+    /// Measurement log (docs/log-format.md format) the baseline and the candidates are fitted to.
     #[arg(long)]
     pub log: PathBuf,
     /// A log withheld from every fit, used only to validate.

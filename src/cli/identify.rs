@@ -6,7 +6,7 @@ use std::path::PathBuf;
 /// Arguments of `magswarm identify`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct IdentifyArgs {
-    /// Measurement log(s) (CONTRACTS.md format); repeat for several.
+    /// Measurement log(s) (docs/log-format.md format); repeat for several.
     #[arg(long, required = true)]
     pub log: Vec<PathBuf>,
     /// Output model JSON.

@@ -8,7 +8,7 @@ pub struct PredictArgs {
     /// Model JSON (default: the built-in paper model).
     #[arg(long)]
     pub model: Option<PathBuf>,
-    /// Input log (CONTRACTS.md format; needs t_s, z_m_mm, f_hz).
+    /// Input log (docs/log-format.md format; needs t_s, z_m_mm, f_hz).
     #[arg(long)]
     pub log: PathBuf,
     /// Output log with predicted r1_mm, r2_mm.

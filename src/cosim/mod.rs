@@ -14,7 +14,7 @@
 //! - [`CoSimulation`] is one FMU as a plant ([`magswarm_control::plant::SwarmPlant`]), so the
 //!   one closed-loop driver ([`magswarm_control::driver::run_loop`]) runs it: each
 //!   communication step reads the outputs, asks a controller for the inputs, writes one row
-//!   of the measurement log (CONTRACTS.md) to a [`LogSink`], sets the inputs and calls
+//!   of the measurement log (docs/log-format.md) to a [`LogSink`], sets the inputs and calls
 //!   `doStep`. [`CoSimulation::run`] is that loop with a closure over [`Measurement`].
 //!
 //! ```no_run

@@ -8,7 +8,7 @@
 //! 1. the outputs are read (the radii the FMU holds at `t_k`, plus any `extra_outputs`);
 //! 2. the controller maps them to a [`Command`] (inputs, optional setpoints);
 //! 3. one log row `(t_k, command, measured radii, setpoints)` goes to the sink: the inputs in a
-//!    row are the ones commanded from `t_k` on (zero-order hold), as CONTRACTS.md's log asks;
+//!    row are the ones commanded from `t_k` on (zero-order hold), as the log format asks (docs/log-format.md);
 //! 4. the inputs are set (`fmi2SetReal`) and the FMU advances `fmi2DoStep(t_k, h)`.
 //!
 //! This is a sequential (Gauss-Seidel) loop: the controller sees the outputs of the step that

@@ -31,7 +31,7 @@ use magswarm_model::effects::{self, Effects, FormationLag};
 use magswarm_model::registry::{self, Transform};
 use magswarm_model::{hz_to_rad_s, steady, Model};
 
-/// The candidates, in report order (the CONTRACTS names).
+/// The candidates, in report order (the effect names of docs/effects.md).
 pub const NAMES: [&str; 6] = effects::NAMES;
 
 /// One freed parameter of a candidate (fit space).

@@ -53,8 +53,8 @@ pub struct Setting<'a> {
 pub struct Alt {
     /// Family.
     pub family: &'static str,
-    /// Alternative within it.
-    pub name: &'static str,
+    /// Alternative within it (and the radius it is judged on).
+    pub name: String,
     /// Statistic on the data.
     pub stat: f64,
     /// Bootstrap p-value.
@@ -256,7 +256,8 @@ pub fn box_scan(
 }
 
 enum Kind {
-    Design(Solver),
+    /// Index of the alternative's design.
+    Design(usize),
     Box,
 }
 
@@ -266,24 +267,41 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let w = st.rc.w;
     let one_fold = vec![0usize; st.y.len()];
     let base = Solver::new(st.base, &one_fold, 1)?;
-    let mut alts: Vec<(&'static str, &'static str, Kind)> = Vec::new();
+    // Each smooth alternative is judged per radius (an effect may show in one only: a band of
+    // r2), the local box over both.
+    let mut alts: Vec<(&'static str, String, Kind, Option<usize>)> = Vec::new();
+    let mut designs: Vec<(&'static str, &'static str, Solver)> = Vec::new();
     for (fam, name, f) in alternatives(ds, st.rc) {
         let (cols, pen) = shapes::columns(&f, st.rc);
         if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-            alts.push((fam, name, Kind::Design(s)));
+            designs.push((fam, name, s));
         }
     }
     let (cols, pen) = surface(ds, st.rc);
     if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-        alts.push(("inputs", "zf_surface", Kind::Design(s)));
+        designs.push(("inputs", "zf_surface", s));
     }
-    alts.push(("inputs", "local_box", Kind::Box));
     if st.noise.repeat_pairs >= 3 {
         let (cols, pen) = point_means(ds, st.rc);
         if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-            alts.push(("lack_of_fit", "point_means", Kind::Design(s)));
+            designs.push(("lack_of_fit", "point_means", s));
         }
     }
+    let solvers: Vec<Solver> = designs
+        .into_iter()
+        .map(|(fam, name, s)| {
+            for a in 0..2 {
+                alts.push((
+                    fam,
+                    format!("{name} r{}", a + 1),
+                    Kind::Design(alts.len() / 2),
+                    Some(a),
+                ));
+            }
+            s
+        })
+        .collect();
+    alts.push(("inputs", "local_box".into(), Kind::Box, None));
     // The statistics of one (real or simulated) weighted residual; `scale` studentises by the
     // visit noise this residual shows, relative to the real one's.
     let stats_of = |y: &DVector<f64>, real_sd: Option<[f64; 2]>| -> Option<(Vec<f64>, [f64; 2])> {
@@ -295,14 +313,18 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             None => [1.0, 1.0],
         };
         let s0 = linear::sse_axes(&e0);
+        let drops: Vec<[f64; 2]> = solvers
+            .iter()
+            .map(|s| {
+                let s1 = linear::sse_axes(&s.residual(y));
+                [(s0[0] - s1[0]) / rho[0], (s0[1] - s1[1]) / rho[1]]
+            })
+            .collect();
         let out = alts
             .iter()
-            .map(|(_, _, k)| match k {
-                Kind::Design(s) => {
-                    let s1 = linear::sse_axes(&s.residual(y));
-                    (s0[0] - s1[0]) / rho[0] + (s0[1] - s1[1]) / rho[1]
-                }
-                Kind::Box => box_scan(ds, &r0, sd, false).0,
+            .map(|(_, _, k, a)| match (k, a) {
+                (Kind::Design(i), Some(a)) => drops[*i][*a],
+                _ => box_scan(ds, &r0, sd, false).0,
             })
             .collect();
         Some((out, sd))
@@ -316,11 +338,11 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         })
         .collect();
     let mut out_alts = Vec::new();
-    for (j, (fam, name, _)) in alts.iter().enumerate() {
+    for (j, (fam, name, _, _)) in alts.iter().enumerate() {
         let nj: Vec<f64> = null.iter().map(|v| v[j]).collect();
         out_alts.push(Alt {
             family: fam,
-            name,
+            name: name.clone(),
             stat: obs[j],
             p: noise::boot_p(obs[j], &nj),
         });

@@ -1,4 +1,4 @@
-//! `magswarm lab`: the virtual lab. It writes measurement logs (CONTRACTS.md format) from a
+//! `magswarm lab`: the virtual lab. It writes measurement logs (docs/log-format.md format) from a
 //! chosen truth under realistic protocols and noise, deterministically for a seed.
 //!
 //! - Truth: a model file with any effects (`--truth`, default the paper model), plus optional

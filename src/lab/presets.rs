@@ -42,7 +42,7 @@ pub fn rig_truth() -> Model {
     m
 }
 
-/// The foreign form of a CONTRACTS effect at strength `s` (module table).
+/// The foreign form of an effect at strength `s` (module table).
 pub fn foreign(name: &str, s: f64) -> Result<Foreign> {
     Ok(match name {
         "phase_lag" => Foreign::PhaseLagLogistic {

@@ -107,7 +107,7 @@ fn z_ref() -> f64 {
 }
 
 impl Foreign {
-    /// Name of the CONTRACTS effect this foreign form stands for.
+    /// Name of the effect this foreign form stands for.
     pub fn effect(&self) -> &'static str {
         match self {
             Foreign::PhaseLagLogistic { .. } => "phase_lag",

@@ -1,4 +1,4 @@
-"""MagSwarm.fmu through fmpy, as an importer sees it (CONTRACTS.md "The FMU interface").
+"""MagSwarm.fmu through fmpy, as an importer sees it (README, "The FMU").
 
 Value references are always looked up in modelDescription.xml.
 """

@@ -1,4 +1,4 @@
-//! The magswarm measurement log (CONTRACTS.md CSV format): reader and streaming writer.
+//! The magswarm measurement log (docs/log-format.md): reader and streaming writer.
 //!
 //! One format for everything that produces or consumes radii over time: the co-simulation
 //! harnesses, `magswarm predict`, `identify`, `diagnose`, the virtual lab and the hardware
@@ -19,7 +19,7 @@
 //! - `r1_mm`, `r2_mm` may be absent as columns (a `predict` input). Where present, a row with
 //!   `valid` = 1 (or no `valid` column) needs a finite, non-negative number in both. A row
 //!   with `valid` = 0 may leave them empty or `NaN` (the camera lost the swarm): the row is
-//!   kept and ignored by fitting, as CONTRACTS.md says; a negative or non-numeric text is
+//!   kept and ignored by fitting, as docs/log-format.md says; a negative or non-numeric text is
 //!   still an error there.
 //! - `valid` accepts `0`/`1` (also `true`/`false`); an empty cell counts as 1.
 //! - `session` is free text; `t_s` restarts per session and must never decrease within one.

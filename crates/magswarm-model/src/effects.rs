@@ -37,7 +37,7 @@ use crate::registry::{Group, Param};
 use crate::steady::SteadyPoint;
 use crate::Model;
 
-/// Names of the effects, as in the model file and CONTRACTS.md.
+/// Names of the effects, as in the model file and docs/effects.md.
 pub const NAMES: [&str; 6] = [
     "phase_lag",
     "cohesion_loss",

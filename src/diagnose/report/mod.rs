@@ -1,4 +1,4 @@
-//! The gap report: `DIR/report.json` (fields fixed by CONTRACTS.md, plus evidence),
+//! The gap report: `DIR/report.json` (the fields scripts rely on, docs/diagnose.md, plus evidence),
 //! `DIR/baseline.json`, `DIR/augmented.json`, `DIR/report.md` and its figures. Everything is
 //! rendered from the [`Diagnosis`]; nothing is recomputed here except the residual tables the
 //! figures draw. `report.md` is written by `markdown.rs`, its figures by `figures.rs`.
