@@ -1,4 +1,5 @@
-//! The FMI 2.0 Co-Simulation entry points as generic `unsafe fn`s over an [`FmuModel`].
+//! The FMI 2.0 entry points (Co-Simulation and Model Exchange) as generic `unsafe fn`s over
+//! an [`FmuModel`].
 //!
 //! A long file that is one cohesive thing: one entry point per function of the standard, all
 //! with the same prologue, in the order of the standard's API.
@@ -253,7 +254,8 @@ pub fn fmi2_get_version() -> *const c_char {
 }
 
 /// `fmi2Instantiate`. Returns NULL (after logging why, if there is a logger) on: NULL
-/// callbacks, missing instance name or GUID, GUID mismatch, Model Exchange, an invalid
+/// callbacks, missing instance name or GUID, GUID mismatch, Model Exchange for a model
+/// without it ([`FmuModel::MODEL_EXCHANGE`]), an unknown fmuType, an invalid
 /// variable table, or a failing (or panicking) model constructor.
 ///
 /// # Safety

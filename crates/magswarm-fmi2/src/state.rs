@@ -1,5 +1,7 @@
-//! The Co-Simulation state machine of FMI 2.0 (standard, section 4.2.4): which function
-//! may be called in which state, and which variables may be set in which state.
+//! The state machine of FMI 2.0 (standard, sections 3.2.3 for Model Exchange and 4.2.4 for
+//! Co-Simulation): which function may be called in which state, and which variables may be
+//! set in which state. A function of the other interface is refused before this table is
+//! consulted (`Func::model_exchange_only`, `Func::co_simulation_only`).
 //!
 //! Checked before anything else in every entry point, so a model never sees a call out of
 //! sequence. `StepInProgress` and `StepCanceled` do not exist here because `fmi2DoStep`
