@@ -758,6 +758,29 @@ pub unsafe fn fmi2_set_fmu_state<M: FmuModel>(c: Fmi2Component, state: Fmi2FmuSt
         // SAFETY: the snapshot is a live box of this instance (`snapshot_of` found it in
         // `i.states`), and nothing else references it during this call.
         let snap = unsafe { &*snap };
+        // A state saved by an instance of the other interface (serialized bytes carry the
+        // mode) would leave this one in a mode it has no way out of.
+        let foreign = match snap.shell.mode {
+            Mode::StepComplete | Mode::StepFailed => i.model_exchange,
+            Mode::EventMode | Mode::ContinuousTimeMode => !i.model_exchange,
+            _ => false,
+        };
+        if foreign {
+            let kind = if i.model_exchange {
+                "fmi2ModelExchange"
+            } else {
+                "fmi2CoSimulation"
+            };
+            return i.fail(
+                f,
+                Fmi2Status::Error,
+                format!(
+                    "the FMU state was saved in mode {} by an instance of the other interface; \
+                     this instance was instantiated as {kind}",
+                    snap.shell.mode.name()
+                ),
+            );
+        }
         i.model = snap.model.clone();
         i.shell = snap.shell;
         Fmi2Status::Ok

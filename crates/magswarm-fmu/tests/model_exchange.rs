@@ -178,3 +178,65 @@ fn reset_and_fmu_states_work_in_model_exchange() {
     assert_eq!(s, OK);
     assert_eq!(nominal, vec![0.01, 0.01]);
 }
+
+#[test]
+fn a_state_serialized_by_a_co_simulation_instance_is_refused_by_a_model_exchange_one() {
+    let cs = H::instantiate_as("plant-cs", None, FMI2_CO_SIMULATION).unwrap();
+    assert_eq!(cs.init(0.0), OK);
+    let (s, st) = cs.get_state();
+    assert_eq!(s, OK);
+    // SAFETY: a state `cs` handed out.
+    let bytes = unsafe { cs.serialize(st) }.expect("serializes");
+    let h = me();
+    to_continuous(&h);
+    let (s, foreign) = h.deserialize(&bytes);
+    assert_eq!(s, OK, "the bytes themselves are intact");
+    // SAFETY: a state `h` handed out.
+    assert_eq!(unsafe { h.set_state(foreign) }, Error);
+    assert!(
+        h.log().has(Error, "other interface"),
+        "{:?}",
+        h.log().entries()
+    );
+}
+
+#[test]
+fn directional_derivatives_of_the_state_derivatives_match_finite_differences() {
+    use magswarm_fmi2::shell::fmi2_get_directional_derivative;
+    let h = me();
+    to_continuous(&h);
+    let x = [0.008, 0.0125];
+    let f0 = rhs(&h, 0.0, &x);
+    let eps = 1e-8;
+    for (j, known) in [vr::R1, vr::R2].into_iter().enumerate() {
+        let mut xp = x;
+        xp[j] += eps;
+        let fp = rhs(&h, 0.0, &xp);
+        assert_eq!(h.set_states(&x), OK);
+        let unknowns = [vr::DER_R1, vr::DER_R2];
+        let mut out = [f64::NAN; 2];
+        // SAFETY: a live instance; arrays of the stated lengths.
+        let s = unsafe {
+            fmi2_get_directional_derivative::<MagSwarm>(
+                h.component(),
+                unknowns.as_ptr(),
+                2,
+                &known,
+                1,
+                &1.0,
+                out.as_mut_ptr(),
+            )
+        };
+        assert_eq!(s, OK, "{:?}", h.log().entries());
+        for i in 0..2 {
+            let fd = (fp[i] - f0[i]) / eps;
+            assert!(
+                (out[i] - fd).abs() <= 1e-4 * fd.abs().max(1.0),
+                "d der_r{}/d r{}: analytic {} vs finite difference {fd}",
+                i + 1,
+                j + 1,
+                out[i]
+            );
+        }
+    }
+}
