@@ -232,6 +232,63 @@ fn plant_ns(calls: usize, h: f64) -> (f64, f64) {
     (rest, change)
 }
 
+/// ns per Model Exchange right-hand side evaluation (what an importer's integrator calls per
+/// stage: set time, set states, get derivatives), through the shell's entry points in process
+/// (the exported C symbols forward to these same functions); at constant inputs and with
+/// `fmi2SetReal` of a new z_m before every evaluation.
+fn me_rhs_ns(calls: usize) -> (f64, f64) {
+    use magswarm_fmi2::abi::FMI2_MODEL_EXCHANGE;
+    use magswarm_fmi2::host::Host;
+    let h = Host::<magswarm_fmu::MagSwarm>::instantiate_as("perf", None, FMI2_MODEL_EXCHANGE)
+        .expect("ME instance");
+    assert_eq!(h.init(0.0), magswarm_fmi2::Fmi2Status::Ok);
+    h.new_discrete_states();
+    h.enter_continuous_time_mode();
+    let c = h.component();
+    let time = |change: bool| {
+        let mut k = 0usize;
+        let mut x = [8.4e-3, 12.0e-3];
+        let mut dx = [0.0; 2];
+        median(
+            (0..REPEATS)
+                .map(|_| {
+                    let t0 = Instant::now();
+                    for _ in 0..calls {
+                        k += 1;
+                        let t = k as f64 * 1e-4;
+                        // SAFETY: a live ME instance in continuous-time mode; arrays of 2.
+                        unsafe {
+                            if change {
+                                let z = inputs(t)[0];
+                                magswarm_fmi2::shell::fmi2_set_real::<magswarm_fmu::MagSwarm>(
+                                    c,
+                                    &magswarm_fmu::vr::Z_M,
+                                    1,
+                                    &z,
+                                );
+                            }
+                            magswarm_fmi2::shell::fmi2_set_time::<magswarm_fmu::MagSwarm>(c, t);
+                            magswarm_fmi2::shell::fmi2_set_continuous_states::<
+                                magswarm_fmu::MagSwarm,
+                            >(c, x.as_ptr(), 2);
+                            magswarm_fmi2::shell::fmi2_get_derivatives::<magswarm_fmu::MagSwarm>(
+                                c,
+                                dx.as_mut_ptr(),
+                                2,
+                            );
+                        }
+                        x[0] += 1e-7 * black_box(dx[0]).signum();
+                    }
+                    t0.elapsed().as_nanos() as f64 / calls as f64
+                })
+                .collect(),
+        )
+    };
+    let constant = time(false);
+    let change = time(true);
+    (constant, change)
+}
+
 /// Seconds for the seed's 180 s scenario at 1 kHz through the FMU harness
 /// (examples/pid_tracking.rs) and in-process (magswarm_control::sim::closed_loop).
 fn tracking(fmu: &Fmu) -> Result<(f64, f64, usize)> {
@@ -410,6 +467,15 @@ fn main() -> Result<()> {
         let step = Raw::new(&fmu, MAGSWARM, h)?.time(calls, Raw::step);
         change.push(set_step - step);
     }
+    let (rhs_const, rhs_change) = me_rhs_ns(calls);
+    t.row(&[
+        "Model Exchange right-hand side (fmi2SetTime + fmi2SetContinuousStates + fmi2GetDerivatives, in process through the shell): constant inputs / input change every call".into(),
+        format!("{rhs_const:.0} ns / {rhs_change:.0} ns"),
+        "-".into(),
+        "-".into(),
+        "-".into(),
+        "reported".into(),
+    ]);
     let ic = input_change_ns(calls);
     t.row(&[
         "one input change: InputTerms::new (stiffness, map, scheduled gains)".into(),

@@ -19,6 +19,12 @@ pub const DEFAULT_OUT: &str = plant::DEFAULT_OUT;
 
 /// Run the command.
 pub fn run(a: &FmuArgs) -> Result<()> {
+    if a.fmi_version == 3 {
+        anyhow::bail!(
+            "--fmi-version 3: FMI 3.0 export is not implemented yet; this build writes FMI 2.0 \
+             only (Co-Simulation and Model Exchange in one FMU: drop --fmi-version or pass 2)"
+        );
+    }
     if a.pid {
         return run_pid(a);
     }

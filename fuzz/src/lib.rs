@@ -6,7 +6,11 @@
 //!   "the model panicked" message is a failure too;
 //! - the status matches the state machine (Error leaves the instance in Error, Fatal in Fatal),
 //!   and every Error or Fatal was explained through the logger;
-//! - in StepComplete and Terminated every Real output reads OK and finite.
+//! - in StepComplete, Terminated and the Model Exchange modes every Real output reads OK and
+//!   finite.
+//!
+//! One bit of the first byte instantiates Model Exchange instead of Co-Simulation, and the
+//! op codes 18-23 are the Model Exchange calls, so both interfaces share one driver.
 
 pub mod planted;
 
@@ -115,7 +119,15 @@ fn vr_of<M: FmuModel>(b: &mut Bytes<'_>, ty: VarType) -> u32 {
 /// Run one fuzz input against model `M`.
 pub fn drive<M: FmuModel>(data: &[u8]) {
     let mut b = Bytes::new(data);
-    let resource: Option<Vec<u8>> = match b.u8() % 4 {
+    let first = b.u8();
+    // Bit 2 of the first byte: instantiate as Model Exchange (refused, with a message, by
+    // Co-Simulation-only models; then nothing more happens).
+    let fmu_type = if first & 4 != 0 {
+        magswarm_fmi2::abi::FMI2_MODEL_EXCHANGE
+    } else {
+        magswarm_fmi2::abi::FMI2_CO_SIMULATION
+    };
+    let resource: Option<Vec<u8>> = match first % 4 {
         0 => None,
         1 => Some(b"file:///nonexistent/resources".to_vec()),
         2 => Some(format!("file://{}", std::env::temp_dir().display()).into_bytes()),
@@ -124,7 +136,7 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
             Some(b.take(n).to_vec())
         }
     };
-    let h = match Host::<M>::instantiate("fuzz", resource.as_deref()) {
+    let h = match Host::<M>::instantiate_as("fuzz", resource.as_deref(), fmu_type) {
         Ok(h) => h,
         Err(log) => {
             assert!(
@@ -140,7 +152,7 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
     while !b.done() && ops < 64 {
         ops += 1;
         let before = h.log().len();
-        let op = b.u8() % 18;
+        let op = b.u8() % 24;
         let status = match op {
             0 => h.init(b.f64()),
             1 => h.set_real(vr_of::<M>(&mut b, VarType::Real), b.f64()),
@@ -231,13 +243,12 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
                 let vr = vr_of::<M>(&mut b, VarType::Integer);
                 let x = i32::from_le_bytes([b.u8(), b.u8(), b.u8(), b.u8()]);
                 // SAFETY: live instance, one-element arrays.
-                unsafe {
-                    magswarm_fmi2::shell::fmi2_set_integer::<M>(h.component(), &vr, 1, &x)
-                }
+                unsafe { magswarm_fmi2::shell::fmi2_set_integer::<M>(h.component(), &vr, 1, &x) }
             }
             15 => {
                 let n = 1 + b.u8() as usize % 3;
-                let unknowns: Vec<u32> = (0..n).map(|_| vr_of::<M>(&mut b, VarType::Real)).collect();
+                let unknowns: Vec<u32> =
+                    (0..n).map(|_| vr_of::<M>(&mut b, VarType::Real)).collect();
                 let knowns: Vec<u32> = (0..n).map(|_| vr_of::<M>(&mut b, VarType::Real)).collect();
                 let dv: Vec<f64> = (0..n).map(|_| b.f64()).collect();
                 let mut out = vec![0.0; n];
@@ -265,6 +276,47 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
                         start,
                         (b.u8() & 1) as i32,
                         stop,
+                    )
+                }
+            }
+            // Model Exchange calls (refused on a Co-Simulation instance, and out of sequence).
+            18 => h.set_time(b.f64()),
+            19 => {
+                let n = b.u8() as usize % 4;
+                let x: Vec<f64> = (0..n).map(|_| b.f64()).collect();
+                h.set_states(&x)
+            }
+            20 => {
+                let n = b.u8() as usize % 4;
+                match b.u8() % 3 {
+                    0 => h.get_derivatives(n).0,
+                    1 => h.get_states(n).0,
+                    _ => h.get_nominals(n).0,
+                }
+            }
+            21 => {
+                if b.u8() & 1 == 0 {
+                    h.enter_event_mode()
+                } else {
+                    h.enter_continuous_time_mode()
+                }
+            }
+            22 => {
+                if b.u8() & 1 == 0 {
+                    h.new_discrete_states().0
+                } else {
+                    h.completed_integrator_step().0
+                }
+            }
+            23 => {
+                let n = b.u8() as usize % 3;
+                let mut ind = vec![0.0; n];
+                // SAFETY: live instance, `ind` has `n` writable elements.
+                unsafe {
+                    magswarm_fmi2::shell::fmi2_get_event_indicators::<M>(
+                        h.component(),
+                        ind.as_mut_ptr(),
+                        n,
                     )
                 }
             }

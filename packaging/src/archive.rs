@@ -8,8 +8,22 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-/// Platform folder inside the FMU (FMI 2.0 name for 64-bit Linux).
-pub const PLATFORM: &str = "linux64";
+/// Platform folder inside the FMU: the FMI 2.0 name of the platform this packager was
+/// compiled for (the library it packages is built for the same target). Only Linux is
+/// built and tested; the other names follow the standard's table.
+pub const PLATFORM: &str = if cfg!(all(target_os = "linux", target_pointer_width = "64")) {
+    "linux64"
+} else if cfg!(target_os = "linux") {
+    "linux32"
+} else if cfg!(all(target_os = "windows", target_pointer_width = "64")) {
+    "win64"
+} else if cfg!(target_os = "windows") {
+    "win32"
+} else if cfg!(target_os = "macos") {
+    "darwin64"
+} else {
+    "linux64"
+};
 
 /// One file of an archive.
 pub struct Entry<'a> {

@@ -41,7 +41,7 @@ pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
     ])?;
     archive::write_atomic(out, &bytes)?;
     Ok(format!(
-        "wrote {} ({} kB): FMI 2.0 Co-Simulation, model identifier {}, GUID {guid}, \
+        "wrote {} ({} kB): FMI 2.0 Co-Simulation and Model Exchange, model identifier {}, GUID {guid}, \
          {} variables, model \"{}\" baked into resources/{}",
         out.display(),
         bytes.len() / 1024,

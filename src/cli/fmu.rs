@@ -28,6 +28,11 @@ pub struct FmuArgs {
     /// --lib the controller's libmagswarm_pid_fmu.so).
     #[arg(long)]
     pub pid: bool,
+    /// FMI version of the FMU: 2 (Co-Simulation and Model Exchange in one FMU). Version 3
+    /// is accepted by the parser and refused with a message: the FMI 3.0 shell is not built
+    /// yet.
+    #[arg(long, value_name = "2|3", default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+    pub fmi_version: u8,
     /// With --pid: controller configuration JSON (magswarm-pid/1) baked into resources/pid.json.
     #[arg(long, value_name = "CFG.json", requires = "pid")]
     pub pid_config: Option<PathBuf>,

@@ -41,7 +41,8 @@ pub struct Cli {
 pub enum Cmd {
     /// Print the seed's figures beside the model's, and optionally draw Fig. 4/5-style plots.
     Paper(PaperArgs),
-    /// Build and package the FMI 2.0 Co-Simulation FMU (default target/fmu/MagSwarm.fmu).
+    /// Build and package the FMI 2.0 FMU, Co-Simulation and Model Exchange in one (default
+    /// target/fmu/MagSwarm.fmu).
     Fmu(FmuArgs),
     /// Replay the inputs of a log through a model (dynamics included).
     Predict(PredictArgs),

@@ -110,3 +110,21 @@ pub struct Fmi2CallbackFunctions {
     /// Passed back as the first argument of every logger call.
     pub component_environment: Fmi2ComponentEnvironment,
 }
+
+/// `fmi2EventInfo` (Model Exchange), filled by `fmi2NewDiscreteStates`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Fmi2EventInfo {
+    /// `newDiscreteStatesNeeded`.
+    pub new_discrete_states_needed: Fmi2Boolean,
+    /// `terminateSimulation`.
+    pub terminate_simulation: Fmi2Boolean,
+    /// `nominalsOfContinuousStatesChanged`.
+    pub nominals_of_continuous_states_changed: Fmi2Boolean,
+    /// `valuesOfContinuousStatesChanged`.
+    pub values_of_continuous_states_changed: Fmi2Boolean,
+    /// `nextEventTimeDefined`.
+    pub next_event_time_defined: Fmi2Boolean,
+    /// `nextEventTime`.
+    pub next_event_time: Fmi2Real,
+}

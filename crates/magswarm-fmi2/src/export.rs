@@ -454,6 +454,140 @@ macro_rules! export_fmi2 {
             }
         }
 
+        /// FMI 2.0 `fmi2SetTime` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2SetTime(
+            c: $crate::abi::Fmi2Component,
+            time: $crate::abi::Fmi2Real,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_set_time::<$model>(c, time) }
+        }
+
+        /// FMI 2.0 `fmi2SetContinuousStates` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2SetContinuousStates(
+            c: $crate::abi::Fmi2Component,
+            x: *const $crate::abi::Fmi2Real,
+            nx: usize,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_set_continuous_states::<$model>(c, x, nx) }
+        }
+
+        /// FMI 2.0 `fmi2EnterEventMode` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2EnterEventMode(
+            c: $crate::abi::Fmi2Component,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_enter_event_mode::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2NewDiscreteStates` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2NewDiscreteStates(
+            c: $crate::abi::Fmi2Component,
+            eventInfo: *mut $crate::abi::Fmi2EventInfo,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_new_discrete_states::<$model>(c, eventInfo) }
+        }
+
+        /// FMI 2.0 `fmi2EnterContinuousTimeMode` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2EnterContinuousTimeMode(
+            c: $crate::abi::Fmi2Component,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_enter_continuous_time_mode::<$model>(c) }
+        }
+
+        /// FMI 2.0 `fmi2CompletedIntegratorStep` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2CompletedIntegratorStep(
+            c: $crate::abi::Fmi2Component,
+            noSetFMUStatePriorToCurrentPoint: $crate::abi::Fmi2Boolean,
+            enterEventMode: *mut $crate::abi::Fmi2Boolean,
+            terminateSimulation: *mut $crate::abi::Fmi2Boolean,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_completed_integrator_step::<$model>(
+                    c,
+                    noSetFMUStatePriorToCurrentPoint,
+                    enterEventMode,
+                    terminateSimulation,
+                )
+            }
+        }
+
+        /// FMI 2.0 `fmi2GetDerivatives` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2GetDerivatives(
+            c: $crate::abi::Fmi2Component,
+            derivatives: *mut $crate::abi::Fmi2Real,
+            nx: usize,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_derivatives::<$model>(c, derivatives, nx) }
+        }
+
+        /// FMI 2.0 `fmi2GetEventIndicators` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2GetEventIndicators(
+            c: $crate::abi::Fmi2Component,
+            eventIndicators: *mut $crate::abi::Fmi2Real,
+            ni: usize,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_event_indicators::<$model>(c, eventIndicators, ni) }
+        }
+
+        /// FMI 2.0 `fmi2GetContinuousStates` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2GetContinuousStates(
+            c: $crate::abi::Fmi2Component,
+            x: *mut $crate::abi::Fmi2Real,
+            nx: usize,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe { $crate::shell::fmi2_get_continuous_states::<$model>(c, x, nx) }
+        }
+
+        /// FMI 2.0 `fmi2GetNominalsOfContinuousStates` (Model Exchange).
+        #[no_mangle]
+        #[allow(non_snake_case, clippy::missing_safety_doc)]
+        pub unsafe extern "C" fn fmi2GetNominalsOfContinuousStates(
+            c: $crate::abi::Fmi2Component,
+            x_nominal: *mut $crate::abi::Fmi2Real,
+            nx: usize,
+        ) -> $crate::abi::Fmi2Status {
+            // SAFETY: the importer's arguments are passed on unchanged; the shell function
+            // relies only on what FMI 2.0 promises about them (its `# Safety` section).
+            unsafe {
+                $crate::shell::fmi2_get_nominals_of_continuous_states::<$model>(c, x_nominal, nx)
+            }
+        }
+
         /// FMI 2.0 `fmi2CancelStep`.
         #[no_mangle]
         #[allow(non_snake_case, clippy::missing_safety_doc)]

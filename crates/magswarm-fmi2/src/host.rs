@@ -125,6 +125,16 @@ impl<M: FmuModel> Host<M> {
         name: &str,
         resource_location: Option<&[u8]>,
     ) -> Result<Self, Vec<LogEntry>> {
+        Self::instantiate_as(name, resource_location, FMI2_CO_SIMULATION)
+    }
+
+    /// `fmi2Instantiate` as `fmu_type` (`FMI2_MODEL_EXCHANGE` or `FMI2_CO_SIMULATION`, or
+    /// anything else, to test that it is refused).
+    pub fn instantiate_as(
+        name: &str,
+        resource_location: Option<&[u8]>,
+        fmu_type: c_int,
+    ) -> Result<Self, Vec<LogEntry>> {
         let log = Box::<Recorder>::default();
         let cb = Box::new(callbacks(&log));
         let guid = CString::new(crate::guid::<M>()).unwrap_or_default();
@@ -137,7 +147,7 @@ impl<M: FmuModel> Host<M> {
         let c = unsafe {
             shell::fmi2_instantiate::<M>(
                 name.as_ptr(),
-                FMI2_CO_SIMULATION,
+                fmu_type,
                 guid.as_ptr(),
                 res.as_ref().map_or(std::ptr::null(), |r| r.as_ptr()),
                 &*cb,
@@ -230,6 +240,77 @@ impl<M: FmuModel> Host<M> {
         // SAFETY: live instance, valid out pointer.
         unsafe { shell::fmi2_get_real_status::<M>(self.c, FMI2_LAST_SUCCESSFUL_TIME, &mut t) };
         t
+    }
+
+    /// `fmi2SetTime` (Model Exchange).
+    pub fn set_time(&self, t: f64) -> Fmi2Status {
+        // SAFETY: live instance.
+        unsafe { shell::fmi2_set_time::<M>(self.c, t) }
+    }
+
+    /// `fmi2SetContinuousStates` (Model Exchange).
+    pub fn set_states(&self, x: &[f64]) -> Fmi2Status {
+        // SAFETY: live instance, `x` has `x.len()` elements.
+        unsafe { shell::fmi2_set_continuous_states::<M>(self.c, x.as_ptr(), x.len()) }
+    }
+
+    /// `fmi2GetContinuousStates` into `n` values (Model Exchange).
+    pub fn get_states(&self, n: usize) -> (Fmi2Status, Vec<f64>) {
+        let mut x = vec![f64::NAN; n];
+        // SAFETY: live instance, `x` has `n` writable elements.
+        let s = unsafe { shell::fmi2_get_continuous_states::<M>(self.c, x.as_mut_ptr(), n) };
+        (s, x)
+    }
+
+    /// `fmi2GetDerivatives` into `n` values (Model Exchange).
+    pub fn get_derivatives(&self, n: usize) -> (Fmi2Status, Vec<f64>) {
+        let mut x = vec![f64::NAN; n];
+        // SAFETY: live instance, `x` has `n` writable elements.
+        let s = unsafe { shell::fmi2_get_derivatives::<M>(self.c, x.as_mut_ptr(), n) };
+        (s, x)
+    }
+
+    /// `fmi2GetNominalsOfContinuousStates` into `n` values (Model Exchange).
+    pub fn get_nominals(&self, n: usize) -> (Fmi2Status, Vec<f64>) {
+        let mut x = vec![f64::NAN; n];
+        // SAFETY: live instance, `x` has `n` writable elements.
+        let s = unsafe {
+            shell::fmi2_get_nominals_of_continuous_states::<M>(self.c, x.as_mut_ptr(), n)
+        };
+        (s, x)
+    }
+
+    /// `fmi2EnterEventMode` (Model Exchange).
+    pub fn enter_event_mode(&self) -> Fmi2Status {
+        // SAFETY: live instance.
+        unsafe { shell::fmi2_enter_event_mode::<M>(self.c) }
+    }
+
+    /// `fmi2NewDiscreteStates` (Model Exchange).
+    pub fn new_discrete_states(&self) -> (Fmi2Status, Fmi2EventInfo) {
+        let mut e = Fmi2EventInfo {
+            new_discrete_states_needed: 7,
+            ..Default::default()
+        };
+        // SAFETY: live instance, valid out pointer.
+        let s = unsafe { shell::fmi2_new_discrete_states::<M>(self.c, &mut e) };
+        (s, e)
+    }
+
+    /// `fmi2EnterContinuousTimeMode` (Model Exchange).
+    pub fn enter_continuous_time_mode(&self) -> Fmi2Status {
+        // SAFETY: live instance.
+        unsafe { shell::fmi2_enter_continuous_time_mode::<M>(self.c) }
+    }
+
+    /// `fmi2CompletedIntegratorStep` (Model Exchange): status and enterEventMode.
+    pub fn completed_integrator_step(&self) -> (Fmi2Status, bool) {
+        let (mut ev, mut term) = (7, 7);
+        // SAFETY: live instance, valid out pointers.
+        let s = unsafe {
+            shell::fmi2_completed_integrator_step::<M>(self.c, FMI2_TRUE, &mut ev, &mut term)
+        };
+        (s, ev != 0)
     }
 
     /// `fmi2Terminate`.
@@ -353,7 +434,10 @@ impl<M: FmuModel> Host<M> {
                 return Err(format!("returned {status:?} without logging why"));
             }
         }
-        if matches!(mode, Mode::StepComplete | Mode::Terminated) {
+        if matches!(
+            mode,
+            Mode::StepComplete | Mode::Terminated | Mode::EventMode | Mode::ContinuousTimeMode
+        ) {
             let before = self.log.len();
             for (name, s, x) in self.outputs() {
                 if s != Fmi2Status::Ok {

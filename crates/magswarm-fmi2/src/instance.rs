@@ -46,6 +46,12 @@ pub struct Instance<M: FmuModel> {
     /// accepted back (a handle of another instance, a freed one or garbage is refused
     /// without being read), and `fmi2FreeInstance` frees the ones the importer did not.
     pub(crate) states: Vec<*mut Snapshot<M>>,
+    /// Instantiated as `fmi2ModelExchange` (else Co-Simulation): decides which functions
+    /// exist for this instance and where `fmi2ExitInitializationMode` leads.
+    pub(crate) model_exchange: bool,
+    /// Model Exchange: value references of the continuous states and of their derivatives
+    /// (parallel lists, from [`crate::table::continuous_states`]).
+    pub(crate) me_states: (Vec<u32>, Vec<u32>),
 }
 
 impl<M: FmuModel> Drop for Instance<M> {
@@ -237,7 +243,11 @@ impl<M: FmuModel> Instance<M> {
         let cs = ctx.status();
         let s = self.conclude(f, cs, r);
         if s <= Fmi2Status::Warning {
-            self.shell.mode = Mode::StepComplete;
+            self.shell.mode = if self.model_exchange {
+                Mode::EventMode
+            } else {
+                Mode::StepComplete
+            };
             self.debug(|| {
                 format!(
                     "{}: initialized, ready to step at t = {}",
@@ -607,6 +617,177 @@ impl<M: FmuModel> Instance<M> {
                 let s = e.status.max(Fmi2Status::Error);
                 self.fail(f, s, e.message)
             }
+        }
+    }
+
+    // -----------------------------------------------------------------------------------
+    // Model Exchange
+    // -----------------------------------------------------------------------------------
+
+    /// Number of continuous states.
+    pub fn n_states(&self) -> usize {
+        self.me_states.0.len()
+    }
+
+    fn check_nx(&mut self, f: Func, n: usize, what: &str) -> Result<(), Fmi2Status> {
+        if n == self.n_states() {
+            Ok(())
+        } else {
+            let nx = self.n_states();
+            Err(self.fail(
+                f,
+                Fmi2Status::Error,
+                format!("{what} has {n} elements but the model has {nx} continuous states"),
+            ))
+        }
+    }
+
+    /// `fmi2SetTime`.
+    pub fn set_time(&mut self, t: f64) -> Fmi2Status {
+        let f = Func::SetTime;
+        if !t.is_finite() {
+            return self.fail(
+                f,
+                Fmi2Status::Error,
+                format!("time must be finite, got {t}"),
+            );
+        }
+        let now = self.shell.time;
+        if t < now - TIME_TOLERANCE * now.abs().max(1.0) && self.shell.mode == Mode::EventMode {
+            return self.fail(
+                f,
+                Fmi2Status::Error,
+                format!("time {t:?} is before the current time {now:?} in event mode"),
+            );
+        }
+        match self.model.set_time(t) {
+            Ok(()) => {
+                self.shell.time = t;
+                Fmi2Status::Ok
+            }
+            Err(e) => {
+                let s = e.status.max(Fmi2Status::Error);
+                self.fail(f, s, e.message)
+            }
+        }
+    }
+
+    /// `fmi2SetContinuousStates`.
+    pub fn set_continuous_states(&mut self, x: &[f64]) -> Fmi2Status {
+        let f = Func::SetContinuousStates;
+        if let Err(s) = self.check_nx(f, x.len(), "x") {
+            return s;
+        }
+        if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+            let name = self.table.get(self.me_states.0[i]).map_or("?", |v| v.name);
+            return self.fail(
+                f,
+                Fmi2Status::Error,
+                format!("x[{i}] = {} (state \"{name}\") is not finite", x[i]),
+            );
+        }
+        let mut ctx = Ctx::new(&self.logger, f.name());
+        let r = self.model.set_continuous_states(&mut ctx, x);
+        let cs = ctx.status();
+        self.conclude(f, cs, r)
+    }
+
+    fn fill(&mut self, f: Func, out: &mut [f64], derivatives: bool) -> Fmi2Status {
+        if let Err(s) = self.check_nx(f, out.len(), "the output array") {
+            return s;
+        }
+        let vrs = if derivatives {
+            std::mem::take(&mut self.me_states.1)
+        } else {
+            std::mem::take(&mut self.me_states.0)
+        };
+        let r = if derivatives {
+            self.model.get_derivatives(&vrs, out)
+        } else {
+            self.model.get_continuous_states(&vrs, out)
+        };
+        let bad = out.iter().position(|v| !v.is_finite());
+        if derivatives {
+            self.me_states.1 = vrs;
+        } else {
+            self.me_states.0 = vrs;
+        }
+        match r {
+            Err(e) => {
+                let s = e.status.max(Fmi2Status::Error);
+                self.fail(f, s, e.message)
+            }
+            Ok(()) => match bad {
+                None => Fmi2Status::Ok,
+                Some(i) => {
+                    let vr = if derivatives {
+                        self.me_states.1[i]
+                    } else {
+                        self.me_states.0[i]
+                    };
+                    let name = self.table.get(vr).map_or("?", |v| v.name);
+                    self.fail(
+                        f,
+                        Fmi2Status::Error,
+                        format!("\"{name}\" is not finite ({})", out[i]),
+                    )
+                }
+            },
+        }
+    }
+
+    /// `fmi2GetDerivatives`.
+    pub fn get_derivatives(&mut self, dx: &mut [f64]) -> Fmi2Status {
+        self.fill(Func::GetDerivatives, dx, true)
+    }
+
+    /// `fmi2GetContinuousStates`.
+    pub fn get_continuous_states(&mut self, x: &mut [f64]) -> Fmi2Status {
+        self.fill(Func::GetContinuousStates, x, false)
+    }
+
+    /// `fmi2GetNominalsOfContinuousStates`: each state's `nominal` from the table (1 if none).
+    pub fn get_nominals(&mut self, out: &mut [f64]) -> Fmi2Status {
+        if let Err(s) = self.check_nx(Func::GetNominalsOfContinuousStates, out.len(), "x_nominal") {
+            return s;
+        }
+        for (o, &vr) in out.iter_mut().zip(&self.me_states.0) {
+            *o = self.table.get(vr).and_then(|v| v.nominal).unwrap_or(1.0);
+        }
+        Fmi2Status::Ok
+    }
+
+    /// `fmi2GetEventIndicators`: the shell's models have none.
+    pub fn get_event_indicators(&mut self, n: usize) -> Fmi2Status {
+        if n == 0 {
+            Fmi2Status::Ok
+        } else {
+            self.fail(
+                Func::GetEventIndicators,
+                Fmi2Status::Error,
+                format!(
+                    "ni = {n} but the model has no event indicators (numberOfEventIndicators=0)"
+                ),
+            )
+        }
+    }
+
+    /// `fmi2EnterEventMode` / `fmi2EnterContinuousTimeMode`: the mode change.
+    pub fn enter_mode(&mut self, f: Func, mode: Mode) -> Fmi2Status {
+        self.shell.mode = mode;
+        self.debug(|| format!("{}: at t = {}", f.name(), self.shell.time));
+        Fmi2Status::Ok
+    }
+
+    /// `fmi2CompletedIntegratorStep`: returns (status, enterEventMode).
+    pub fn completed_integrator_step(&mut self) -> (Fmi2Status, bool) {
+        let f = Func::CompletedIntegratorStep;
+        let mut ctx = Ctx::new(&self.logger, f.name());
+        let r = self.model.completed_integrator_step(&mut ctx);
+        let cs = ctx.status();
+        match r {
+            Ok(ev) => (cs, ev),
+            Err(e) => (self.conclude(f, cs, Err(e)), false),
         }
     }
 }

@@ -1,4 +1,5 @@
-//! A generic FMI 2.0 Co-Simulation export shell.
+//! A generic FMI 2.0 export shell: Co-Simulation, and Model Exchange for models that opt in
+//! ([`FmuModel::MODEL_EXCHANGE`]; both interfaces in one binary and one XML).
 //!
 //! An FMU is two things that must agree: a shared library exporting the `fmi2*` C
 //! functions, and a `modelDescription.xml` describing its variables. This crate makes both
@@ -12,7 +13,8 @@
 //! - [`abi`]: the C types of the standard;
 //! - [`model`]: the variable table and the [`FmuModel`] trait;
 //! - [`table`]: validation of the table against FMI 2.0 rules, lookups by value reference;
-//! - [`state`]: the Co-Simulation state machine and causality rules for setters;
+//! - [`state`]: the Co-Simulation and Model Exchange state machine and causality rules for
+//!   setters;
 //! - [`log`]: the importer's logger and [`Ctx`], the model's handle for warnings;
 //! - [`instance`]: one instance and the logic of every call;
 //! - [`shell`]: the generic `unsafe fn` entry points (pointers, state checks, panic barrier);

@@ -742,4 +742,54 @@ pub trait FmuModel: Clone + Send + Sized + 'static {
     ) -> Result<Vec<f64>, Fmi2Err> {
         crate::jacobian::finite_difference(self, unknowns, knowns, dv_known)
     }
+
+    // ---------------------------------------------------------------------------------
+    // Model Exchange (optional). Every hook has a default, so a Co-Simulation-only model
+    // (such as a rig) implements none of them and keeps `MODEL_EXCHANGE = false`: the XML
+    // then has no `<ModelExchange>` element and `fmi2Instantiate` refuses that type.
+    // ---------------------------------------------------------------------------------
+
+    /// Whether the FMU also offers FMI 2.0 Model Exchange. When `true`, the continuous
+    /// states are the table's variables that a `derivative_of` row points at (in
+    /// `<Derivatives>` order, see [`crate::table::continuous_states`]), and the model must
+    /// implement [`FmuModel::set_continuous_states`] and return the states and their
+    /// derivatives from [`FmuModel::get_real`] (or override the getters below).
+    const MODEL_EXCHANGE: bool = false;
+
+    /// `fmi2SetTime` (Model Exchange): the integrator's time. The shell has checked it is
+    /// finite and does not go backwards.
+    fn set_time(&mut self, _time: f64) -> Result<(), Fmi2Err> {
+        Ok(())
+    }
+
+    /// `fmi2SetContinuousStates`: `x` in the order of [`crate::table::continuous_states`],
+    /// already checked finite and of the right length by the shell.
+    fn set_continuous_states(&mut self, _ctx: &mut Ctx<'_>, _x: &[f64]) -> Result<(), Fmi2Err> {
+        Err(Fmi2Err::error("this model has no continuous states to set"))
+    }
+
+    /// `fmi2GetContinuousStates`: default reads each state's value reference with
+    /// [`FmuModel::get_real`].
+    fn get_continuous_states(&mut self, states: &[u32], x: &mut [f64]) -> Result<(), Fmi2Err> {
+        for (xi, &vr) in x.iter_mut().zip(states) {
+            *xi = self.get_real(vr)?;
+        }
+        Ok(())
+    }
+
+    /// `fmi2GetDerivatives`: default reads each derivative's value reference with
+    /// [`FmuModel::get_real`]. A model with a faster joint evaluation overrides it.
+    fn get_derivatives(&mut self, derivatives: &[u32], dx: &mut [f64]) -> Result<(), Fmi2Err> {
+        for (di, &vr) in dx.iter_mut().zip(derivatives) {
+            *di = self.get_real(vr)?;
+        }
+        Ok(())
+    }
+
+    /// `fmi2CompletedIntegratorStep`: a point the integrator accepted (for models that
+    /// check validity or log envelope crossings there). Returning `true` asks the importer
+    /// to enter event mode.
+    fn completed_integrator_step(&mut self, _ctx: &mut Ctx<'_>) -> Result<bool, Fmi2Err> {
+        Ok(false)
+    }
 }

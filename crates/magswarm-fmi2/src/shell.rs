@@ -1,4 +1,5 @@
-//! The FMI 2.0 Co-Simulation entry points as generic `unsafe fn`s over an [`FmuModel`].
+//! The FMI 2.0 entry points (Co-Simulation and Model Exchange) as generic `unsafe fn`s over
+//! an [`FmuModel`].
 //!
 //! A long file that is one cohesive thing: one entry point per function of the standard, all
 //! with the same prologue, in the order of the standard's API.
@@ -122,6 +123,22 @@ unsafe fn entry<M: FmuModel>(
         // call on it while this one runs, so this is the only reference.
         let i = unsafe { &mut *inst };
         let mode = i.shell.mode;
+        if i.model_exchange && func.co_simulation_only() {
+            return i.fail(
+                func,
+                Fmi2Status::Error,
+                "illegal call: this instance was instantiated as fmi2ModelExchange and this \
+                 function belongs to Co-Simulation",
+            );
+        }
+        if !i.model_exchange && func.model_exchange_only() {
+            return i.fail(
+                func,
+                Fmi2Status::Error,
+                "illegal call: this instance was instantiated as fmi2CoSimulation and this \
+                 function belongs to Model Exchange",
+            );
+        }
         if !func.allowed_in(mode) {
             let hint = match func {
                 Func::CancelStep => " (fmi2DoStep of this FMU never returns fmi2Pending, so there is nothing to cancel)",
@@ -237,7 +254,8 @@ pub fn fmi2_get_version() -> *const c_char {
 }
 
 /// `fmi2Instantiate`. Returns NULL (after logging why, if there is a logger) on: NULL
-/// callbacks, missing instance name or GUID, GUID mismatch, Model Exchange, an invalid
+/// callbacks, missing instance name or GUID, GUID mismatch, Model Exchange for a model
+/// without it ([`FmuModel::MODEL_EXCHANGE`]), an unknown fmuType, an invalid
 /// variable table, or a failing (or panicking) model constructor.
 ///
 /// # Safety
@@ -283,8 +301,9 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
             Some(_) => return Err("instanceName must not be empty".into()),
             None => return Err("instanceName must not be NULL".into()),
         };
-        match fmu_type {
-            FMI2_CO_SIMULATION => {}
+        let model_exchange = match fmu_type {
+            FMI2_CO_SIMULATION => false,
+            FMI2_MODEL_EXCHANGE if M::MODEL_EXCHANGE => true,
             FMI2_MODEL_EXCHANGE => {
                 return Err(format!(
                     "fmuType fmi2ModelExchange requested, but {} implements FMI 2.0 Co-Simulation only \
@@ -292,8 +311,12 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
                     info.model_identifier
                 ))
             }
-            other => return Err(format!("invalid fmuType {other} (expected 1 = fmi2CoSimulation)")),
-        }
+            other => {
+                return Err(format!(
+                    "invalid fmuType {other} (expected 0 = fmi2ModelExchange or 1 = fmi2CoSimulation)"
+                ))
+            }
+        };
         let table = Table::new(info).map_err(|p| {
             format!(
                 "the FMU's variable table is invalid (a bug in the FMU): {}",
@@ -380,6 +403,12 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
             model,
             strings: Vec::new(),
             states: Vec::new(),
+            model_exchange,
+            me_states: if model_exchange {
+                crate::table::continuous_states(info)
+            } else {
+                (Vec::new(), Vec::new())
+            },
         })) as Fmi2Component)
     });
     match result {
@@ -729,6 +758,29 @@ pub unsafe fn fmi2_set_fmu_state<M: FmuModel>(c: Fmi2Component, state: Fmi2FmuSt
         // SAFETY: the snapshot is a live box of this instance (`snapshot_of` found it in
         // `i.states`), and nothing else references it during this call.
         let snap = unsafe { &*snap };
+        // A state saved by an instance of the other interface (serialized bytes carry the
+        // mode) would leave this one in a mode it has no way out of.
+        let foreign = match snap.shell.mode {
+            Mode::StepComplete | Mode::StepFailed => i.model_exchange,
+            Mode::EventMode | Mode::ContinuousTimeMode => !i.model_exchange,
+            _ => false,
+        };
+        if foreign {
+            let kind = if i.model_exchange {
+                "fmi2ModelExchange"
+            } else {
+                "fmi2CoSimulation"
+            };
+            return i.fail(
+                f,
+                Fmi2Status::Error,
+                format!(
+                    "the FMU state was saved in mode {} by an instance of the other interface; \
+                     this instance was instantiated as {kind}",
+                    snap.shell.mode.name()
+                ),
+            );
+        }
         i.model = snap.model.clone();
         i.shell = snap.shell;
         Fmi2Status::Ok
@@ -1173,4 +1225,166 @@ pub unsafe fn fmi2_get_string_status<M: FmuModel>(
     // SAFETY: `c` is NULL or a component this library returned (caller's contract);
     // `entry` tells which before touching it.
     unsafe { entry::<M>(c, f, body) }
+}
+
+// ---------------------------------------------------------------------------------------
+// Model Exchange
+// ---------------------------------------------------------------------------------------
+
+/// `fmi2SetTime`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_set_time<M: FmuModel>(c: Fmi2Component, time: Fmi2Real) -> Fmi2Status {
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::SetTime, |i: &mut Instance<M>| i.set_time(time)) }
+}
+
+/// `fmi2SetContinuousStates`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_set_continuous_states<M: FmuModel>(
+    c: Fmi2Component,
+    x: *const Fmi2Real,
+    nx: usize,
+) -> Fmi2Status {
+    let body = |i: &mut Instance<M>| {
+        // SAFETY: `x` is NULL or points to `nx` reals (caller's contract).
+        match unsafe { slice(x, nx) } {
+            Ok(x) => i.set_continuous_states(x),
+            Err(()) => null_arg(i, Func::SetContinuousStates, "x"),
+        }
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::SetContinuousStates, body) }
+}
+
+/// `fmi2EnterEventMode`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_enter_event_mode<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
+    let body = |i: &mut Instance<M>| i.enter_mode(Func::EnterEventMode, Mode::EventMode);
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::EnterEventMode, body) }
+}
+
+/// `fmi2NewDiscreteStates`: the model has no discrete states and no time events, so the
+/// event iteration ends at once.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_new_discrete_states<M: FmuModel>(
+    c: Fmi2Component,
+    event_info: *mut Fmi2EventInfo,
+) -> Fmi2Status {
+    let body = |i: &mut Instance<M>| {
+        if event_info.is_null() {
+            return null_arg(i, Func::NewDiscreteStates, "fmi2eventInfo");
+        }
+        // SAFETY: non-NULL, points to the importer's fmi2EventInfo (caller's contract).
+        unsafe { event_info.write(Fmi2EventInfo::default()) };
+        Fmi2Status::Ok
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::NewDiscreteStates, body) }
+}
+
+/// `fmi2EnterContinuousTimeMode`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_enter_continuous_time_mode<M: FmuModel>(c: Fmi2Component) -> Fmi2Status {
+    let body =
+        |i: &mut Instance<M>| i.enter_mode(Func::EnterContinuousTimeMode, Mode::ContinuousTimeMode);
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::EnterContinuousTimeMode, body) }
+}
+
+/// `fmi2CompletedIntegratorStep`.
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_completed_integrator_step<M: FmuModel>(
+    c: Fmi2Component,
+    _no_set_fmu_state_prior: Fmi2Boolean,
+    enter_event_mode: *mut Fmi2Boolean,
+    terminate_simulation: *mut Fmi2Boolean,
+) -> Fmi2Status {
+    let body = |i: &mut Instance<M>| {
+        if enter_event_mode.is_null() {
+            return null_arg(i, Func::CompletedIntegratorStep, "enterEventMode");
+        }
+        if terminate_simulation.is_null() {
+            return null_arg(i, Func::CompletedIntegratorStep, "terminateSimulation");
+        }
+        let (s, ev) = i.completed_integrator_step();
+        // SAFETY: both non-NULL and point to the importer's fmi2Boolean (caller's contract).
+        unsafe {
+            enter_event_mode.write(ev as Fmi2Boolean);
+            terminate_simulation.write(0);
+        }
+        s
+    };
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::CompletedIntegratorStep, body) }
+}
+
+macro_rules! me_array_getter {
+    ($(#[$doc:meta])* $name:ident, $func:expr, $arg:literal, $method:ident) => {
+        $(#[$doc])*
+        ///
+        /// # Safety
+        /// See the module documentation.
+        pub unsafe fn $name<M: FmuModel>(c: Fmi2Component, out: *mut Fmi2Real, n: usize) -> Fmi2Status {
+            let body = |i: &mut Instance<M>| {
+                // SAFETY: `out` is NULL or points to `n` writable reals (caller's contract).
+                match unsafe { slice_mut(out, n) } {
+                    Ok(o) => i.$method(o),
+                    Err(()) => null_arg(i, $func, $arg),
+                }
+            };
+            // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+            // `entry` tells which before touching it.
+            unsafe { entry::<M>(c, $func, body) }
+        }
+    };
+}
+
+me_array_getter!(
+    /// `fmi2GetDerivatives`.
+    fmi2_get_derivatives, Func::GetDerivatives, "derivatives", get_derivatives
+);
+me_array_getter!(
+    /// `fmi2GetContinuousStates`.
+    fmi2_get_continuous_states, Func::GetContinuousStates, "x", get_continuous_states
+);
+me_array_getter!(
+    /// `fmi2GetNominalsOfContinuousStates`.
+    fmi2_get_nominals_of_continuous_states,
+    Func::GetNominalsOfContinuousStates,
+    "x_nominal",
+    get_nominals
+);
+
+/// `fmi2GetEventIndicators` (the shell's models have none: only `ni = 0` is accepted).
+///
+/// # Safety
+/// See the module documentation.
+pub unsafe fn fmi2_get_event_indicators<M: FmuModel>(
+    c: Fmi2Component,
+    _indicators: *mut Fmi2Real,
+    ni: usize,
+) -> Fmi2Status {
+    let body = |i: &mut Instance<M>| i.get_event_indicators(ni);
+    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
+    // `entry` tells which before touching it.
+    unsafe { entry::<M>(c, Func::GetEventIndicators, body) }
 }

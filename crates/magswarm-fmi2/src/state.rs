@@ -1,5 +1,7 @@
-//! The Co-Simulation state machine of FMI 2.0 (standard, section 4.2.4): which function
-//! may be called in which state, and which variables may be set in which state.
+//! The state machine of FMI 2.0 (standard, sections 3.2.3 for Model Exchange and 4.2.4 for
+//! Co-Simulation): which function may be called in which state, and which variables may be
+//! set in which state. A function of the other interface is refused before this table is
+//! consulted (`Func::model_exchange_only`, `Func::co_simulation_only`).
 //!
 //! Checked before anything else in every entry point, so a model never sees a call out of
 //! sequence. `StepInProgress` and `StepCanceled` do not exist here because `fmi2DoStep`
@@ -20,6 +22,10 @@ pub enum Mode {
     StepFailed,
     /// After `fmi2Terminate`.
     Terminated,
+    /// Model Exchange: event mode (after `fmi2ExitInitializationMode` or `fmi2EnterEventMode`).
+    EventMode,
+    /// Model Exchange: continuous-time mode (the importer's integrator runs).
+    ContinuousTimeMode,
     /// A call returned `fmi2Error`: only getters, FMU-state functions, reset and free.
     Error,
     /// A call returned `fmi2Fatal`: only free.
@@ -37,6 +43,8 @@ impl Mode {
             Mode::Terminated => 5,
             Mode::Error => 6,
             Mode::Fatal => 7,
+            Mode::EventMode => 8,
+            Mode::ContinuousTimeMode => 9,
         }
     }
 
@@ -50,6 +58,8 @@ impl Mode {
             5 => Mode::Terminated,
             6 => Mode::Error,
             7 => Mode::Fatal,
+            8 => Mode::EventMode,
+            9 => Mode::ContinuousTimeMode,
             _ => return None,
         })
     }
@@ -64,6 +74,8 @@ impl Mode {
             Mode::Terminated => "Terminated",
             Mode::Error => "Error",
             Mode::Fatal => "Fatal",
+            Mode::EventMode => "EventMode",
+            Mode::ContinuousTimeMode => "ContinuousTimeMode",
         }
     }
 }
@@ -103,6 +115,16 @@ pub enum Func {
     GetIntegerStatus,
     GetBooleanStatus,
     GetStringStatus,
+    SetTime,
+    SetContinuousStates,
+    EnterEventMode,
+    NewDiscreteStates,
+    EnterContinuousTimeMode,
+    CompletedIntegratorStep,
+    GetDerivatives,
+    GetEventIndicators,
+    GetContinuousStates,
+    GetNominalsOfContinuousStates,
 }
 
 impl Func {
@@ -140,11 +162,21 @@ impl Func {
             Func::GetIntegerStatus => "fmi2GetIntegerStatus",
             Func::GetBooleanStatus => "fmi2GetBooleanStatus",
             Func::GetStringStatus => "fmi2GetStringStatus",
+            Func::SetTime => "fmi2SetTime",
+            Func::SetContinuousStates => "fmi2SetContinuousStates",
+            Func::EnterEventMode => "fmi2EnterEventMode",
+            Func::NewDiscreteStates => "fmi2NewDiscreteStates",
+            Func::EnterContinuousTimeMode => "fmi2EnterContinuousTimeMode",
+            Func::CompletedIntegratorStep => "fmi2CompletedIntegratorStep",
+            Func::GetDerivatives => "fmi2GetDerivatives",
+            Func::GetEventIndicators => "fmi2GetEventIndicators",
+            Func::GetContinuousStates => "fmi2GetContinuousStates",
+            Func::GetNominalsOfContinuousStates => "fmi2GetNominalsOfContinuousStates",
         }
     }
 
     /// Every function, in the order of the standard's table.
-    pub const ALL: [Func; 31] = [
+    pub const ALL: [Func; 41] = [
         Func::SetDebugLogging,
         Func::FreeInstance,
         Func::SetupExperiment,
@@ -176,7 +208,52 @@ impl Func {
         Func::GetIntegerStatus,
         Func::GetBooleanStatus,
         Func::GetStringStatus,
+        Func::SetTime,
+        Func::SetContinuousStates,
+        Func::EnterEventMode,
+        Func::NewDiscreteStates,
+        Func::EnterContinuousTimeMode,
+        Func::CompletedIntegratorStep,
+        Func::GetDerivatives,
+        Func::GetEventIndicators,
+        Func::GetContinuousStates,
+        Func::GetNominalsOfContinuousStates,
     ];
+
+    /// Whether the function belongs to Model Exchange only (refused on a Co-Simulation
+    /// instance, whatever its state).
+    pub fn model_exchange_only(self) -> bool {
+        matches!(
+            self,
+            Func::SetTime
+                | Func::SetContinuousStates
+                | Func::EnterEventMode
+                | Func::NewDiscreteStates
+                | Func::EnterContinuousTimeMode
+                | Func::CompletedIntegratorStep
+                | Func::GetDerivatives
+                | Func::GetEventIndicators
+                | Func::GetContinuousStates
+                | Func::GetNominalsOfContinuousStates
+        )
+    }
+
+    /// Whether the function belongs to Co-Simulation only (refused on a Model Exchange
+    /// instance, whatever its state).
+    pub fn co_simulation_only(self) -> bool {
+        matches!(
+            self,
+            Func::SetRealInputDerivatives
+                | Func::GetRealOutputDerivatives
+                | Func::DoStep
+                | Func::CancelStep
+                | Func::GetStatus
+                | Func::GetRealStatus
+                | Func::GetIntegerStatus
+                | Func::GetBooleanStatus
+                | Func::GetStringStatus
+        )
+    }
 
     /// The functions allowed in `mode`, as text for messages ("a, b and c"), read from
     /// [`Func::allowed_in`] so the message and the table cannot disagree.
@@ -206,16 +283,49 @@ impl Func {
             Func::ExitInitializationMode => mode == InitializationMode,
             // Not in Error: there the standard allows only getters, the FMU-state functions,
             // fmi2Reset and fmi2FreeInstance (plus fmi2SetDebugLogging).
-            Func::Terminate => matches!(mode, StepComplete | StepFailed),
+            Func::Terminate => {
+                matches!(
+                    mode,
+                    StepComplete | StepFailed | EventMode | ContinuousTimeMode
+                )
+            }
             Func::GetReal | Func::GetInteger | Func::GetBoolean | Func::GetString => {
                 matches!(
                     mode,
-                    InitializationMode | StepComplete | StepFailed | Terminated | Error
+                    InitializationMode
+                        | StepComplete
+                        | StepFailed
+                        | Terminated
+                        | Error
+                        | EventMode
+                        | ContinuousTimeMode
                 )
             }
-            Func::SetReal | Func::SetInteger | Func::SetBoolean | Func::SetString => {
-                matches!(mode, Instantiated | InitializationMode | StepComplete)
+            // Which variables may be set is decided per variable by `may_set`.
+            Func::SetReal => matches!(
+                mode,
+                Instantiated | InitializationMode | StepComplete | EventMode | ContinuousTimeMode
+            ),
+            Func::SetInteger | Func::SetBoolean | Func::SetString => {
+                matches!(
+                    mode,
+                    Instantiated | InitializationMode | StepComplete | EventMode
+                )
             }
+            Func::SetTime => matches!(mode, EventMode | ContinuousTimeMode),
+            Func::SetContinuousStates | Func::CompletedIntegratorStep => mode == ContinuousTimeMode,
+            Func::EnterEventMode => matches!(mode, EventMode | ContinuousTimeMode),
+            Func::NewDiscreteStates | Func::EnterContinuousTimeMode => mode == EventMode,
+            Func::GetDerivatives | Func::GetEventIndicators | Func::GetContinuousStates => {
+                matches!(
+                    mode,
+                    InitializationMode | EventMode | ContinuousTimeMode | Terminated | Error
+                )
+            }
+            Func::GetNominalsOfContinuousStates => matches!(
+                mode,
+                Instantiated | EventMode | ContinuousTimeMode | Terminated | Error
+            ),
             Func::GetFmuState
             | Func::SetFmuState
             | Func::FreeFmuState
@@ -225,7 +335,13 @@ impl Func {
             Func::GetDirectionalDerivative => {
                 matches!(
                     mode,
-                    InitializationMode | StepComplete | StepFailed | Terminated | Error
+                    InitializationMode
+                        | StepComplete
+                        | StepFailed
+                        | Terminated
+                        | Error
+                        | EventMode
+                        | ContinuousTimeMode
                 )
             }
             Func::SetRealInputDerivatives => {
@@ -278,11 +394,13 @@ pub fn may_set(var: &Variable, mode: Mode) -> Result<(), String> {
     let ok = match mode {
         Mode::Instantiated => is_input || matches!(initial, Some(Initial::Exact | Initial::Approx)),
         Mode::InitializationMode => is_input || initial == Some(Initial::Exact),
-        Mode::StepComplete => {
+        Mode::StepComplete | Mode::EventMode => {
             is_input
                 || (var.causality == Causality::Parameter
                     && var.variability == Variability::Tunable)
         }
+        // Model Exchange, continuous-time mode: only continuous inputs.
+        Mode::ContinuousTimeMode => is_input && var.variability == Variability::Continuous,
         _ => false,
     };
     if ok {
@@ -291,7 +409,8 @@ pub fn may_set(var: &Variable, mode: Mode) -> Result<(), String> {
         let rule = match mode {
             Mode::Instantiated => "only inputs and variables with initial=exact or approx can be set before initialization",
             Mode::InitializationMode => "only inputs and variables with initial=exact can be set during initialization",
-            Mode::StepComplete => "only inputs and tunable parameters can be set after initialization",
+            Mode::StepComplete | Mode::EventMode => "only inputs and tunable parameters can be set after initialization",
+            Mode::ContinuousTimeMode => "only continuous inputs can be set in continuous-time mode (tunable parameters in event mode)",
             _ => "no variable can be set in this state",
         };
         Err(format!(

@@ -76,6 +76,16 @@ pub fn state_vrs(info: &ModelInfo) -> HashSet<u32> {
         .collect()
 }
 
+/// The continuous states and their derivatives for Model Exchange, as two parallel lists of
+/// value references in `<Derivatives>` order (table order of the derivative rows): element
+/// `i` of `fmi2GetContinuousStates` is `states[i]`, of `fmi2GetDerivatives` `derivatives[i]`.
+pub fn continuous_states(info: &ModelInfo) -> (Vec<u32>, Vec<u32>) {
+    info.variables
+        .iter()
+        .filter_map(|v| v.derivative_of.map(|s| (s, v.vr)))
+        .unzip()
+}
+
 /// Check every rule; all problems are reported at once.
 pub fn validate(info: &ModelInfo) -> Result<(), Vec<String>> {
     let mut p: Vec<String> = Vec::new();

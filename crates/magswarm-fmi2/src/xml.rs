@@ -45,7 +45,7 @@ pub fn model_description_xml<M: FmuModel>(options: &XmlOptions) -> String {
 
 /// The modelDescription.xml of model `M`, or the list of problems with its table.
 pub fn try_model_description_xml<M: FmuModel>(options: &XmlOptions) -> Result<String, Vec<String>> {
-    model_description_xml_for(M::model_info(), options)
+    model_description_xml_with(M::model_info(), options, M::MODEL_EXCHANGE)
 }
 
 fn b(x: bool) -> &'static str {
@@ -67,6 +67,16 @@ fn join_indices(v: &[usize]) -> String {
 pub fn model_description_xml_for(
     info: &ModelInfo,
     options: &XmlOptions,
+) -> Result<String, Vec<String>> {
+    model_description_xml_with(info, options, false)
+}
+
+/// [`model_description_xml_for`], with a `<ModelExchange>` element beside `<CoSimulation>`
+/// when `model_exchange` (the model's [`FmuModel::MODEL_EXCHANGE`]).
+pub fn model_description_xml_with(
+    info: &ModelInfo,
+    options: &XmlOptions,
+    model_exchange: bool,
 ) -> Result<String, Vec<String>> {
     validate(info)?;
     let mut problems = Vec::new();
@@ -94,7 +104,7 @@ pub fn model_description_xml_for(
     if !problems.is_empty() {
         return Err(problems);
     }
-    write_xml(info, options).map_err(|e| vec![format!("XML writer error: {e}")])
+    write_xml(info, options, model_exchange).map_err(|e| vec![format!("XML writer error: {e}")])
 }
 
 fn index_of(info: &ModelInfo, vr: u32) -> usize {
@@ -112,7 +122,11 @@ fn sorted_indices(info: &ModelInfo, vrs: &[u32]) -> Vec<usize> {
     v
 }
 
-fn write_xml(info: &ModelInfo, options: &XmlOptions) -> std::io::Result<String> {
+fn write_xml(
+    info: &ModelInfo,
+    options: &XmlOptions,
+    model_exchange: bool,
+) -> std::io::Result<String> {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
 
@@ -153,6 +167,18 @@ fn write_xml(info: &ModelInfo, options: &XmlOptions) -> std::io::Result<String> 
     w.write_event(Event::Start(root))?;
 
     // Capabilities: what the shell implements, identical for every model.
+    if model_exchange {
+        let mut me = BytesStart::new("ModelExchange");
+        me.push_attribute(("modelIdentifier", info.model_identifier));
+        me.push_attribute(("needsExecutionTool", b(false)));
+        me.push_attribute(("completedIntegratorStepNotNeeded", b(true)));
+        me.push_attribute(("canBeInstantiatedOnlyOncePerProcess", b(false)));
+        me.push_attribute(("canNotUseMemoryManagementFunctions", b(true)));
+        me.push_attribute(("canGetAndSetFMUstate", b(true)));
+        me.push_attribute(("canSerializeFMUstate", b(true)));
+        me.push_attribute(("providesDirectionalDerivative", b(true)));
+        w.write_event(Event::Empty(me))?;
+    }
     let mut cs = BytesStart::new("CoSimulation");
     cs.push_attribute(("modelIdentifier", info.model_identifier));
     cs.push_attribute(("needsExecutionTool", b(false)));

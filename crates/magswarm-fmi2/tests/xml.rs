@@ -473,3 +473,39 @@ fn guid_tracks_the_table() {
 fn print_xml() {
     print!("{}", xml());
 }
+
+/// A model that opts into Model Exchange gets a `<ModelExchange>` element first (the schema
+/// puts it before `<CoSimulation>`), with the same identifier; one that does not (the toy, a
+/// Co-Simulation-only model) gets none, and the GUID is the same either way (it hashes the
+/// table, which both interfaces share).
+#[test]
+fn model_exchange_element_only_for_models_that_opt_in() {
+    use magswarm_fmi2::xml::model_description_xml_with;
+    use magswarm_fmi2::FmuModel;
+    let info = Lag::model_info();
+    let me = model_description_xml_with(info, &XmlOptions::default(), true).unwrap();
+    let doc = parse(&me);
+    let top: Vec<&str> = doc
+        .iter()
+        .filter(|e| e.parent == "fmiModelDescription")
+        .map(|e| e.name.as_str())
+        .take(2)
+        .collect();
+    assert_eq!(top, ["ModelExchange", "CoSimulation"]);
+    let ids: Vec<&String> = doc
+        .iter()
+        .filter(|e| e.name == "ModelExchange" || e.name == "CoSimulation")
+        .map(|e| &e.attrs["modelIdentifier"])
+        .collect();
+    assert_eq!(ids[0], ids[1]);
+    assert!(!xml().contains("<ModelExchange"));
+    let guid_of = |x: &str| {
+        parse(x)
+            .into_iter()
+            .find(|e| e.name == "fmiModelDescription")
+            .unwrap()
+            .attrs["guid"]
+            .clone()
+    };
+    assert_eq!(guid_of(&me), guid_of(&xml()));
+}

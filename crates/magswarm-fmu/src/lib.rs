@@ -646,6 +646,48 @@ impl FmuModel for MagSwarm {
         self.check_outputs("fmi2DoStep")
     }
 
+    // Model Exchange: the states are r1, r2 of ODE (4) (the table's der_r1, der_r2 rows).
+    const MODEL_EXCHANGE: bool = true;
+
+    fn set_time(&mut self, time: f64) -> Result<(), Fmi2Err> {
+        self.plant().set_time(time);
+        Ok(())
+    }
+
+    fn set_continuous_states(&mut self, _ctx: &mut Ctx<'_>, x: &[f64]) -> Result<(), Fmi2Err> {
+        if self.model.effects.formation_lag.is_some() {
+            return Err(Fmi2Err::error(
+                "the formation_lag effect's slow formation mode is integrated inside the FMU \
+                 and is not exposed as a continuous state: simulate this model as \
+                 Co-Simulation",
+            ));
+        }
+        if x.iter().any(|&r| r <= 0.0) {
+            return Err(Fmi2Err::error(format!(
+                "continuous states r1, r2 must be positive radii, got {x:?} m"
+            )));
+        }
+        self.plant().set_radii([x[0] * 1e3, x[1] * 1e3]);
+        Ok(())
+    }
+
+    fn get_continuous_states(&mut self, _states: &[u32], x: &mut [f64]) -> Result<(), Fmi2Err> {
+        let r = self.plant().state();
+        x.copy_from_slice(&[r[0] * 1e-3, r[1] * 1e-3]);
+        Ok(())
+    }
+
+    fn get_derivatives(&mut self, _derivatives: &[u32], dx: &mut [f64]) -> Result<(), Fmi2Err> {
+        let f = self.plant().derivatives();
+        dx.copy_from_slice(&[f[0] * 1e-3, f[1] * 1e-3]);
+        Ok(())
+    }
+
+    fn completed_integrator_step(&mut self, ctx: &mut Ctx<'_>) -> Result<bool, Fmi2Err> {
+        self.check_envelope(ctx);
+        Ok(false)
+    }
+
     fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
         if vr >= vr::PARAM_BASE {
             let i = (vr - vr::PARAM_BASE) as usize;

@@ -182,6 +182,18 @@ impl Plant {
         self.form = [r[0], 0.0, r[1], 0.0];
     }
 
+    /// Set the radii of ODE (4) \[mm\] and nothing else (the slow formation mode keeps its
+    /// value): what an importer's integrator does in FMI Model Exchange.
+    pub fn set_radii(&mut self, r: [f64; 2]) {
+        self.r = r;
+    }
+
+    /// d(r1, r2)/dt of ODE (4) at the current state and inputs \[mm/s\] (the right-hand side
+    /// an importer's integrator needs in FMI Model Exchange).
+    pub fn derivatives(&self) -> [f64; 2] {
+        self.terms.rhs(&self.model, self.r)
+    }
+
     /// Radii state \[mm\].
     pub fn state(&self) -> [f64; 2] {
         self.r

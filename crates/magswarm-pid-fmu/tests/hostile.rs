@@ -214,3 +214,18 @@ fn forged_controller_states_are_refused() {
         assert!(t0.elapsed() < Duration::from_secs(2), "{what}");
     }
 }
+
+/// The PID FMU is Co-Simulation only: instantiating it as Model Exchange is refused with a
+/// message saying so (its XML has no `<ModelExchange>` element either).
+#[test]
+fn model_exchange_is_refused_by_the_co_simulation_only_pid() {
+    let r =
+        Host::<MagSwarmPid>::instantiate_as("pid", None, magswarm_fmi2::abi::FMI2_MODEL_EXCHANGE);
+    let log = r.err().expect("refused");
+    assert!(
+        log.iter().any(|e| e.message.contains("Co-Simulation only")),
+        "{log:?}"
+    );
+    let xml = magswarm_pid_fmu::model_description(&Default::default(), None);
+    assert!(!xml.contains("<ModelExchange"));
+}
