@@ -362,10 +362,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         })
         .collect();
     let min_p = |set: &[usize]| -> f64 {
-        let obs = set
-            .iter()
-            .map(|&j| out_alts[j].p)
-            .fold(1.0f64, f64::min);
+        let obs = set.iter().map(|&j| out_alts[j].p).fold(1.0f64, f64::min);
         let below = (0..nb)
             .filter(|&b| set.iter().map(|&j| rep_p[j][b]).fold(1.0f64, f64::min) <= obs)
             .count();
