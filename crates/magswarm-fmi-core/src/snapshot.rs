@@ -1,5 +1,5 @@
-//! FMU states: in-memory snapshots (`fmi2GetFMUstate`) and their byte form
-//! (`fmi2SerializeFMUstate`).
+//! FMU states: in-memory snapshots (`fmi2GetFMUstate`, `fmi3GetFMUState`) and their byte
+//! form (`fmi2SerializeFMUstate`, `fmi3SerializeFMUState`).
 //!
 //! A snapshot is a clone of the model plus the shell's own state (mode, time, experiment
 //! setup), so restoring it puts the instance back exactly, including which calls are
@@ -29,15 +29,16 @@
 //! header, magic, layout version, payload length, checksum, GUID, state version, the CBOR
 //! decoding, the shell state's plausibility, and finally the model's own validation
 //! ([`FmuModel::restore_state`]). So truncated, foreign, corrupted or forged bytes give
-//! `fmi2Error` naming the check that failed, never a crash or a half-restored instance.
+//! an error naming the check that failed, never a crash or a half-restored instance.
 
 use serde::{Deserialize, Serialize};
 
-use crate::model::{Fmi2Err, FmuModel};
-use crate::state::Mode;
+use crate::mode::Mode;
+use crate::model::FmuModel;
+use crate::status::ModelError;
 
 /// First word of a live snapshot ("FMI2SNAP"), to recognise our pointers.
-pub(crate) const SNAPSHOT_MAGIC: u64 = u64::from_le_bytes(*b"FMI2SNAP");
+pub const SNAPSHOT_MAGIC: u64 = u64::from_le_bytes(*b"FMI2SNAP");
 /// Magic bytes at the start of a serialized state.
 pub const SERIAL_MAGIC: &[u8; 8] = b"FMI2STAT";
 /// Version of the frame layout (1 was a hand-written payload with an FNV-1a checksum).
@@ -54,16 +55,16 @@ pub struct ShellState {
     pub mode: Mode,
     /// Current communication point.
     pub time: f64,
-    /// From `fmi2SetupExperiment`.
+    /// From the experiment.
     pub start_time: f64,
-    /// From `fmi2SetupExperiment` (`None`: not defined).
+    /// From the experiment (`None`: not defined).
     pub stop_time: Option<f64>,
-    /// From `fmi2SetupExperiment` (`None`: not defined).
+    /// From the experiment (`None`: not defined).
     pub tolerance: Option<f64>,
 }
 
 impl ShellState {
-    /// The state right after `fmi2Instantiate` / `fmi2Reset`.
+    /// The state right after instantiation or reset.
     pub fn fresh() -> Self {
         ShellState {
             mode: Mode::Instantiated,
@@ -75,7 +76,7 @@ impl ShellState {
     }
 }
 
-/// A saved FMU state, handed to the importer as `fmi2FMUstate`.
+/// A saved FMU state, handed to the importer as its opaque `FMUstate` handle.
 #[repr(C)]
 pub struct Snapshot<M> {
     /// [`SNAPSHOT_MAGIC`] while alive (first field: checked through a `*const u64`).
@@ -84,7 +85,7 @@ pub struct Snapshot<M> {
     pub(crate) guid: u128,
     pub(crate) shell: ShellState,
     pub(crate) model: M,
-    /// Serialized form, computed once by `fmi2SerializedFMUstateSize` and reused.
+    /// Serialized form, computed once by the size query and reused.
     pub(crate) cached: Option<Vec<u8>>,
 }
 
@@ -141,8 +142,8 @@ fn le<const N: usize>(b: &[u8], at: usize) -> [u8; N] {
 
 /// Check the frame of `bytes` (every check named in the module documentation up to the
 /// state version) and return its payload.
-pub fn unframe(guid: u128, state_version: u32, bytes: &[u8]) -> Result<&[u8], Fmi2Err> {
-    let bad = |m: String| Err(Fmi2Err::error(format!("serialized FMU state {m}")));
+pub fn unframe(guid: u128, state_version: u32, bytes: &[u8]) -> Result<&[u8], ModelError> {
+    let bad = |m: String| Err(ModelError::error(format!("serialized FMU state {m}")));
     if bytes.len() < HEADER_LEN {
         if bytes.len() >= SERIAL_MAGIC.len() && &bytes[..8] != SERIAL_MAGIC {
             return bad("rejected: bad magic bytes (not an FMU state of this FMU)".into());
@@ -205,7 +206,7 @@ pub fn serialize<M: FmuModel>(
     guid: u128,
     shell: &ShellState,
     model: &M,
-) -> Result<Vec<u8>, Fmi2Err> {
+) -> Result<Vec<u8>, ModelError> {
     let state = model.save_state()?;
     let payload = PayloadOut {
         shell: SavedShell {
@@ -219,7 +220,7 @@ pub fn serialize<M: FmuModel>(
     };
     let mut bytes = Vec::new();
     ciborium::into_writer(&payload, &mut bytes)
-        .map_err(|e| Fmi2Err::error(format!("the model's state cannot be encoded: {e}")))?;
+        .map_err(|e| ModelError::error(format!("the model's state cannot be encoded: {e}")))?;
     Ok(frame(guid, M::STATE_VERSION, &bytes))
 }
 
@@ -231,10 +232,10 @@ fn validate_shell(
     start_time: f64,
     stop_time: Option<f64>,
     tolerance: Option<f64>,
-) -> Result<(), Fmi2Err> {
-    let bad = |m: String| Err(Fmi2Err::error(format!("serialized FMU state: {m}")));
+) -> Result<(), ModelError> {
+    let bad = |m: String| Err(ModelError::error(format!("serialized FMU state: {m}")));
     if mode == Mode::Fatal {
-        // fmi2GetFMUstate is refused in Fatal, so no genuine state is in it.
+        // Getting an FMU state is refused in Fatal, so no genuine state is in it.
         return bad("mode Fatal cannot have been saved".into());
     }
     if !time.is_finite() || !start_time.is_finite() {
@@ -265,28 +266,28 @@ pub fn deserialize<M: FmuModel>(
     guid: u128,
     bytes: &[u8],
     mut template: M,
-) -> Result<(ShellState, M), Fmi2Err> {
+) -> Result<(ShellState, M), ModelError> {
     let mut payload = unframe(guid, M::STATE_VERSION, bytes)?;
     let decoded: PayloadIn<M::State> = ciborium::from_reader(&mut payload).map_err(|e| {
-        Fmi2Err::error(format!(
+        ModelError::error(format!(
             "serialized FMU state: the payload does not decode as this FMU's state: {e}"
         ))
     })?;
     if !payload.is_empty() {
-        return Err(Fmi2Err::error(format!(
+        return Err(ModelError::error(format!(
             "serialized FMU state: {} bytes left over after the decoded state",
             payload.len()
         )));
     }
     let s = decoded.shell;
     let mode = Mode::from_byte(s.mode).ok_or_else(|| {
-        Fmi2Err::error(format!(
+        ModelError::error(format!(
             "serialized FMU state has an invalid mode byte {}",
             s.mode
         ))
     })?;
     validate_shell(mode, s.time, s.start_time, s.stop_time, s.tolerance)?;
-    template.restore_state(decoded.model).map_err(|e| Fmi2Err {
+    template.restore_state(decoded.model).map_err(|e| ModelError {
         message: format!("serialized FMU state: the model refused it: {}", e.message),
         ..e
     })?;

@@ -4,7 +4,7 @@
 //! unit by `display = factor * value + offset`. Getting these right by hand is error-prone
 //! (T = kg·s⁻²·A⁻¹), so the ones magnetic-actuation models need are defined once here.
 
-use crate::model::{BaseUnit, DisplayUnit, UnitDefinition};
+use crate::info::{BaseUnit, DisplayUnit, UnitDefinition};
 
 /// Base-unit exponents (kg, m, s, A, K, mol, cd, rad) with factor 1, offset 0.
 #[allow(clippy::too_many_arguments)]

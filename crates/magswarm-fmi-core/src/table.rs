@@ -1,5 +1,5 @@
-//! Checking a variable table against the rules of FMI 2.0, and looking variables up by
-//! value reference.
+//! Checking a variable table against the rules of FMI 2.0 and 3.0, and looking variables up
+//! by value reference.
 //!
 //! The same checks run when the XML is generated (a bad table fails the build of the FMU)
 //! and at `fmi2Instantiate` (a bad table fails loudly in the importer's log instead of
@@ -9,7 +9,8 @@
 
 use std::collections::{HashMap, HashSet};
 
-use crate::model::{Causality, Initial, ModelInfo, Start, VarType, Variability, Variable};
+use crate::info::ModelInfo;
+use crate::variable::{Causality, Initial, Start, VarType, Variability, Variable};
 
 /// A validated table with a value-reference index.
 #[derive(Debug, Clone)]
@@ -18,6 +19,8 @@ pub struct Table {
     pub info: &'static ModelInfo,
     /// (vr, position) sorted by vr.
     by_vr: Vec<(u32, usize)>,
+    /// The independent variable (time), answered by the instance itself.
+    independent: Option<u32>,
 }
 
 impl Table {
@@ -31,7 +34,21 @@ impl Table {
             .map(|(i, v)| (v.vr, i))
             .collect();
         by_vr.sort_unstable();
-        Ok(Table { info, by_vr })
+        let independent = info
+            .variables
+            .iter()
+            .find(|v| v.causality == Causality::Independent)
+            .map(|v| v.vr);
+        Ok(Table {
+            info,
+            by_vr,
+            independent,
+        })
+    }
+
+    /// Value reference of the independent variable, if the table has one.
+    pub fn independent(&self) -> Option<u32> {
+        self.independent
     }
 
     /// Position (0-based) of the variable with value reference `vr`.
@@ -65,6 +82,44 @@ impl Table {
             )),
         }
     }
+}
+
+/// `info` with an independent variable `time` \[s\] appended if it has none (value
+/// reference 0 if free, else one past the largest): FMI 3.0 requires exactly one, while
+/// FMI 2.0 importers are better served without it (FMI Library logs an error for a time
+/// variable without a start value, which the standard forbids it to have). Computed once
+/// per table and kept until the library is unloaded.
+pub fn with_independent_time(info: &'static ModelInfo) -> &'static ModelInfo {
+    use std::sync::Mutex;
+    static CACHE: Mutex<Vec<(usize, usize)>> = Mutex::new(Vec::new());
+    if info.variables.iter().any(|v| v.causality == Causality::Independent) {
+        return info;
+    }
+    let key = info as *const ModelInfo as usize;
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(&(_, p)) = cache.iter().find(|(k, _)| *k == key) {
+        // SAFETY: `p` points into a slice leaked by `unload::leak` below, alive until the
+        // library is unloaded (after which no function of it runs).
+        return unsafe { &*(p as *const ModelInfo) };
+    }
+    let vr = if info.variables.iter().any(|v| v.vr == 0) {
+        info.variables.iter().map(|v| v.vr).max().unwrap_or(0) + 1
+    } else {
+        0
+    };
+    let mut vars = info.variables.to_vec();
+    let mut time = Variable::real("time", vr)
+        .independent()
+        .description("simulation time");
+    if info.units.iter().any(|u| u.name == "s") {
+        time = time.unit("s");
+    }
+    vars.push(time);
+    let mut with = info.clone();
+    with.variables = crate::unload::leak(vars);
+    let leaked: &'static ModelInfo = &crate::unload::leak(vec![with])[0];
+    cache.push((key, leaked as *const ModelInfo as usize));
+    leaked
 }
 
 /// Value references of the continuous states: variables some other variable is the

@@ -10,7 +10,8 @@
 
 use std::fmt::Write as _;
 
-use crate::model::{FmuModel, ModelInfo};
+use crate::info::ModelInfo;
+use crate::model::FmuModel;
 
 const FNV128_OFFSET: u128 = 0x6c62272e07bb014262b821756295c58d;
 const FNV128_PRIME: u128 = 0x0000000001000000000000000000013B;

@@ -1,32 +1,33 @@
-//! Logging through the importer's `fmi2CallbackLogger`, and [`Ctx`], the handle model
-//! hooks use to report warnings and debug messages.
+//! Logging through the importer's logger callback, and [`Ctx`], the handle model hooks use
+//! to report warnings and debug messages.
 //!
 //! Policy (as in the Reference FMUs): messages with status Warning or worse are always
-//! passed to the logger, because an importer that got `fmi2Error` needs to know why;
-//! debug messages (status OK) only when debug logging is on for their category
-//! (`fmi2Instantiate(loggingOn)` / `fmi2SetDebugLogging`).
+//! passed to the logger, because an importer that got an error needs to know why; debug
+//! messages (status OK) only when debug logging is on for their category (`loggingOn` at
+//! instantiation, `fmi2SetDebugLogging` / `fmi3SetDebugLogging`).
 //!
-//! The C logger is variadic with a printf-style `message`; we never pass extra arguments,
-//! so every `%` in a message is doubled. Importers that print the message without
-//! formatting it will show `%%`; that is the lesser evil compared to a crash in `vsnprintf`.
+//! The logger callbacks differ between the versions (FMI 2.0's is variadic, printf-style,
+//! and takes the instance name; FMI 3.0's takes a plain message): each shell wraps its
+//! callback in a [`LogSink`], so everything here is the same for both.
 
-use std::ffi::{c_void, CString};
+use crate::info::LogCategory;
+use crate::status::Status;
 
-use crate::abi::{Fmi2CallbackFunctions, Fmi2CallbackLogger, Fmi2Status};
-use crate::model::LogCategory;
+/// Where an instance's messages go: the shell's wrapper around the importer's callback,
+/// called with (status, category, message). The messages are complete texts; a shell whose
+/// logger formats them (FMI 2.0) escapes them itself.
+pub type LogSink = Box<dyn Fn(Status, &str, &str)>;
 
 /// Debug messages about the life of the instance (state transitions, resources).
 pub const CAT_EVENTS: &str = "logEvents";
-/// Messages accompanying `fmi2Warning`.
+/// Messages accompanying a Warning status.
 pub const CAT_WARNING: &str = "logStatusWarning";
-/// Messages accompanying `fmi2Discard`.
+/// Messages accompanying a Discard status.
 pub const CAT_DISCARD: &str = "logStatusDiscard";
-/// Messages accompanying `fmi2Error` (misuse, bad input, model errors, caught panics).
+/// Messages accompanying an Error status (misuse, bad input, model errors, caught panics).
 pub const CAT_ERROR: &str = "logStatusError";
-/// Messages accompanying `fmi2Fatal`.
+/// Messages accompanying a Fatal status.
 pub const CAT_FATAL: &str = "logStatusFatal";
-/// Messages accompanying `fmi2Pending` (never produced).
-pub const CAT_PENDING: &str = "logStatusPending";
 /// Enabling this category enables every category.
 pub const CAT_ALL: &str = "logAll";
 
@@ -39,23 +40,19 @@ pub const SHELL_CATEGORIES: &[LogCategory] = &[
     },
     LogCategory {
         name: CAT_WARNING,
-        description: "Messages for fmi2Warning (e.g. inputs outside the validated envelope)",
+        description: "Messages of calls that return a warning (e.g. inputs outside the validated envelope)",
     },
     LogCategory {
         name: CAT_DISCARD,
-        description: "Messages for fmi2Discard",
+        description: "Messages of calls that return Discard",
     },
     LogCategory {
         name: CAT_ERROR,
-        description: "Messages for fmi2Error (illegal calls, invalid arguments, model errors)",
+        description: "Messages of calls that return an error (illegal calls, invalid arguments, model errors)",
     },
     LogCategory {
         name: CAT_FATAL,
-        description: "Messages for fmi2Fatal",
-    },
-    LogCategory {
-        name: CAT_PENDING,
-        description: "Messages for fmi2Pending (not used: fmi2DoStep is synchronous)",
+        description: "Messages of calls that return Fatal",
     },
     LogCategory {
         name: CAT_ALL,
@@ -64,14 +61,13 @@ pub const SHELL_CATEGORIES: &[LogCategory] = &[
 ];
 
 /// The log category the shell uses for a message of this status.
-pub fn category_of(status: Fmi2Status) -> &'static str {
+pub fn category_of(status: Status) -> &'static str {
     match status {
-        Fmi2Status::Ok => CAT_EVENTS,
-        Fmi2Status::Warning => CAT_WARNING,
-        Fmi2Status::Discard => CAT_DISCARD,
-        Fmi2Status::Error => CAT_ERROR,
-        Fmi2Status::Fatal => CAT_FATAL,
-        Fmi2Status::Pending => CAT_PENDING,
+        Status::Ok => CAT_EVENTS,
+        Status::Warning => CAT_WARNING,
+        Status::Discard => CAT_DISCARD,
+        Status::Error => CAT_ERROR,
+        Status::Fatal => CAT_FATAL,
     }
 }
 
@@ -87,11 +83,9 @@ pub fn all_categories(model: &[LogCategory]) -> Vec<LogCategory> {
 }
 
 /// The importer's logger plus the instance's debug-logging settings. Kept by the
-/// instance for its whole life (also across `fmi2Reset`).
+/// instance for its whole life (also across reset).
 pub struct Logger {
-    callback: Option<Fmi2CallbackLogger>,
-    env: *mut c_void,
-    instance_name: CString,
+    sink: Option<LogSink>,
     name: String,
     debug_on: bool,
     /// `None`: every category is enabled while `debug_on`.
@@ -100,17 +94,16 @@ pub struct Logger {
 }
 
 impl Logger {
-    /// A logger for an instance called `instance_name`, from the importer's callbacks.
+    /// A logger for an instance called `instance_name` writing to `sink` (`None`: the
+    /// importer gave no logger, nothing is logged).
     pub fn new(
-        callbacks: Option<&Fmi2CallbackFunctions>,
+        sink: Option<LogSink>,
         instance_name: &str,
         logging_on: bool,
         known: Vec<&'static str>,
     ) -> Logger {
         Logger {
-            callback: callbacks.and_then(|c| c.logger),
-            env: callbacks.map_or(std::ptr::null_mut(), |c| c.component_environment),
-            instance_name: to_c_lossy(instance_name),
+            sink,
             name: instance_name.to_string(),
             debug_on: logging_on,
             enabled: None,
@@ -118,17 +111,17 @@ impl Logger {
         }
     }
 
-    /// The instance name as given to `fmi2Instantiate`.
+    /// The instance name as given at instantiation.
     pub fn instance_name(&self) -> &str {
         &self.name
     }
 
     /// Whether a message of this status and category would reach the importer.
-    pub fn is_enabled(&self, status: Fmi2Status, category: &str) -> bool {
-        if self.callback.is_none() {
+    pub fn is_enabled(&self, status: Status, category: &str) -> bool {
+        if self.sink.is_none() {
             return false;
         }
-        if status >= Fmi2Status::Warning {
+        if status >= Status::Warning {
             return true;
         }
         if !self.debug_on {
@@ -141,27 +134,16 @@ impl Logger {
     }
 
     /// Pass a message to the importer (if enabled).
-    pub fn log(&self, status: Fmi2Status, category: &str, message: &str) {
+    pub fn log(&self, status: Status, category: &str, message: &str) {
         if !self.is_enabled(status, category) {
             return;
         }
-        let Some(cb) = self.callback else { return };
-        let category = to_c_lossy(category);
-        let message = to_c_lossy(&message.replace('%', "%%"));
-        // SAFETY: the importer promised a valid logger for the instance's lifetime; all
-        // strings are NUL-terminated and live until the call returns.
-        unsafe {
-            cb(
-                self.env,
-                self.instance_name.as_ptr(),
-                status,
-                category.as_ptr(),
-                message.as_ptr(),
-            );
+        if let Some(sink) = &self.sink {
+            sink(status, category, message);
         }
     }
 
-    /// `fmi2SetDebugLogging`. Returns the categories that are not known to this FMU
+    /// `SetDebugLogging`. Returns the categories that are not known to this FMU
     /// (they are ignored; the caller reports a warning).
     pub fn set_debug_logging(&mut self, logging_on: bool, categories: &[String]) -> Vec<String> {
         let unknown: Vec<String> = categories
@@ -199,7 +181,8 @@ impl Logger {
 }
 
 /// A C string from arbitrary text: interior NULs become `\0` so nothing is lost silently.
-pub(crate) fn to_c_lossy(s: &str) -> CString {
+pub fn to_c_lossy(s: &str) -> std::ffi::CString {
+    use std::ffi::CString;
     match CString::new(s) {
         Ok(c) => c,
         Err(_) => CString::new(s.replace('\0', "\\0")).unwrap_or_default(),
@@ -207,11 +190,11 @@ pub(crate) fn to_c_lossy(s: &str) -> CString {
 }
 
 /// The handle a model hook gets for reporting: warnings raise the status the FMI call
-/// returns to at least `fmi2Warning`; debug messages go out only if enabled.
+/// returns to at least Warning; debug messages go out only if enabled.
 pub struct Ctx<'a> {
     logger: Option<&'a Logger>,
     function: &'static str,
-    status: Fmi2Status,
+    status: Status,
 }
 
 impl<'a> Ctx<'a> {
@@ -220,7 +203,7 @@ impl<'a> Ctx<'a> {
         Ctx {
             logger: Some(logger),
             function,
-            status: Fmi2Status::Ok,
+            status: Status::Ok,
         }
     }
 
@@ -229,17 +212,17 @@ impl<'a> Ctx<'a> {
         Ctx {
             logger: None,
             function: "",
-            status: Fmi2Status::Ok,
+            status: Status::Ok,
         }
     }
 
-    /// Report a warning: logged under `logStatusWarning`, and the FMI call returns
-    /// `fmi2Warning` (unless something worse happens).
+    /// Report a warning: logged under `logStatusWarning`, and the FMI call returns Warning
+    /// (unless something worse happens).
     pub fn warning(&mut self, message: impl AsRef<str>) {
-        self.status = self.status.max(Fmi2Status::Warning);
+        self.status = self.status.max(Status::Warning);
         if let Some(l) = self.logger {
             l.log(
-                Fmi2Status::Warning,
+                Status::Warning,
                 CAT_WARNING,
                 &format!("{}: {}", self.function, message.as_ref()),
             );
@@ -250,18 +233,18 @@ impl<'a> Ctx<'a> {
     /// anything expensive).
     pub fn debug_enabled(&self, category: &str) -> bool {
         self.logger
-            .is_some_and(|l| l.is_enabled(Fmi2Status::Ok, category))
+            .is_some_and(|l| l.is_enabled(Status::Ok, category))
     }
 
     /// A debug message (status OK) in `category`, if enabled.
     pub fn debug(&self, category: &str, message: impl AsRef<str>) {
         if let Some(l) = self.logger {
-            l.log(Fmi2Status::Ok, category, message.as_ref());
+            l.log(Status::Ok, category, message.as_ref());
         }
     }
 
     /// The worst status reported so far through this context.
-    pub fn status(&self) -> Fmi2Status {
+    pub fn status(&self) -> Status {
         self.status
     }
 

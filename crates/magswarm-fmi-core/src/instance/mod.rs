@@ -1,0 +1,429 @@
+//! One FMU instance: the model plus everything a shell keeps around it, and the logic of
+//! each call once the shell has turned the importer's pointers into slices and checked the
+//! state machine.
+//!
+//! Every operation follows the same pattern: check arguments against the variable table
+//! and the mode, call the model hook with a [`Ctx`], then turn the hook's result into a
+//! [`Status`], a log message and a mode change (`Instance::conclude`). Because all of that
+//! lives here, once, for both FMI versions, a model cannot forget a check and the two
+//! shells cannot disagree. Each operation takes the name of the C function it serves
+//! (`f`), which prefixes its log messages.
+//!
+//! Parts: [`values`] (get/set), [`step`] (Co-Simulation steps, directional and adjoint
+//! derivatives), [`me`] (Model Exchange), [`fmu_state`] (FMU states and their bytes).
+
+use std::ffi::CString;
+use std::path::PathBuf;
+
+use crate::info::ModelInfo;
+use crate::log::{all_categories, Ctx, LogSink, Logger, CAT_EVENTS};
+use crate::mode::Mode;
+use crate::model::{FmuModel, InstantiateArgs};
+use crate::snapshot::{ShellState, Snapshot};
+use crate::status::{ModelError, Status};
+use crate::table::Table;
+
+pub mod fmu_state;
+pub mod me;
+pub mod step;
+pub mod values;
+
+/// How far a communication point (or an event time) may be from the instance's time
+/// (relative to max(1, |t|)) before a step is refused: generous enough for importers that
+/// compute `t = t0 + n*h` instead of summing steps, tight enough to catch a skipped or
+/// repeated step.
+pub const TIME_TOLERANCE: f64 = 1e-9;
+
+/// Which interface an instance was created for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Interface {
+    /// Co-Simulation (the FMU integrates itself; `DoStep`).
+    CoSimulation,
+    /// Model Exchange (the importer's solver integrates the continuous states).
+    ModelExchange,
+}
+
+/// What a shell has found out at instantiation, to build an [`Instance`] from.
+pub struct Setup {
+    /// The shell's magic word for its live instances (first field of the instance).
+    pub magic: u64,
+    /// The variable table (a shell may add the independent variable to the model's).
+    pub info: &'static ModelInfo,
+    /// The instance name.
+    pub name: String,
+    /// Where the messages go.
+    pub sink: Option<LogSink>,
+    /// `loggingOn`.
+    pub logging_on: bool,
+    /// `visible`.
+    pub visible: bool,
+    /// The resource location as passed.
+    pub resource_location: Option<String>,
+    /// It decoded to a folder that exists.
+    pub resource_dir: Option<PathBuf>,
+    /// The `resources/` folder of the unpacked FMU this binary was loaded from.
+    pub packaged_resources: Option<PathBuf>,
+    /// The interface asked for.
+    pub interface: Interface,
+}
+
+/// An instance of model `M` behind the importer's opaque handle.
+#[repr(C)]
+pub struct Instance<M: FmuModel> {
+    /// The shell's magic word while alive; first field so that a shell can check a handle
+    /// through a `*const u64` before trusting it ([`Instance::from_handle`]).
+    magic: u64,
+    /// GUID / instantiation token of the table, as 128 bits.
+    pub guid: u128,
+    /// The validated variable table.
+    pub table: Table,
+    /// The importer's logger and the debug-logging settings.
+    pub logger: Logger,
+    resource_location: Option<String>,
+    resource_dir: Option<PathBuf>,
+    packaged_resources: Option<PathBuf>,
+    visible: bool,
+    logging_on_at_instantiation: bool,
+    /// Mode, time and experiment.
+    pub shell: ShellState,
+    /// The model.
+    pub model: M,
+    /// C copies of the strings last returned by a String getter: valid until the next one
+    /// (or free), which is longer than the standards require.
+    strings: Vec<CString>,
+    /// Every FMU state handed out through this instance and not freed yet: only these are
+    /// accepted back (a handle of another instance, a freed one or garbage is refused
+    /// without being read), and freeing the instance frees the ones the importer did not.
+    states: Vec<*mut Snapshot<M>>,
+    /// The interface this instance was created for: decides which functions exist for it
+    /// and where leaving initialisation mode leads.
+    pub interface: Interface,
+    /// Model Exchange: value references of the continuous states and of their derivatives
+    /// (parallel lists, from [`crate::table::continuous_states`]).
+    me_states: (Vec<u32>, Vec<u32>),
+}
+
+impl<M: FmuModel> Drop for Instance<M> {
+    fn drop(&mut self) {
+        for s in std::mem::take(&mut self.states) {
+            // SAFETY: each pointer came from `Box::into_raw` in this instance and was removed
+            // from the list when freed, so it is live and owned here.
+            drop(unsafe { Box::from_raw(s) });
+        }
+    }
+}
+
+impl<M: FmuModel> Instance<M> {
+    /// A new instance: the table validated, the model constructed. `Err` names what failed
+    /// (the shell logs it and returns NULL).
+    pub fn new(setup: Setup) -> Result<Box<Instance<M>>, String> {
+        let table = Table::new(setup.info).map_err(|p| {
+            format!(
+                "the FMU's variable table is invalid (a bug in the FMU): {}",
+                p.join("; ")
+            )
+        })?;
+        let known = all_categories(setup.info.log_categories)
+            .iter()
+            .map(|c| c.name)
+            .collect();
+        let logger = Logger::new(setup.sink, &setup.name, setup.logging_on, known);
+        let args = InstantiateArgs {
+            instance_name: &setup.name,
+            resource_location: setup.resource_location.as_deref(),
+            resource_dir: setup.resource_dir.as_deref(),
+            packaged_resources: setup.packaged_resources.as_deref(),
+            visible: setup.visible,
+            logging_on: setup.logging_on,
+        };
+        let mut ctx = Ctx::new(&logger, "instantiate");
+        let model = M::instantiate(&mut ctx, &args)
+            .map_err(|e| format!("the model could not be created: {}", e.message))?;
+        let me_states = match setup.interface {
+            Interface::ModelExchange => crate::table::continuous_states(setup.info),
+            Interface::CoSimulation => (Vec::new(), Vec::new()),
+        };
+        Ok(Box::new(Instance {
+            magic: setup.magic,
+            guid: crate::guid::guid_u128(setup.info),
+            table,
+            logger,
+            resource_location: setup.resource_location,
+            resource_dir: setup.resource_dir,
+            packaged_resources: setup.packaged_resources,
+            visible: setup.visible,
+            logging_on_at_instantiation: setup.logging_on,
+            shell: ShellState::fresh(),
+            model,
+            strings: Vec::new(),
+            states: Vec::new(),
+            interface: setup.interface,
+            me_states,
+        }))
+    }
+
+    /// The instance behind an importer's handle, if it carries `magic` (a live instance of
+    /// the shell that uses that word).
+    ///
+    /// # Safety
+    /// `p` must be NULL or a handle this library's shell returned for model `M` (a live or
+    /// freed instance): the first 8 bytes behind it are read.
+    pub unsafe fn from_handle(p: *mut std::ffi::c_void, magic: u64) -> Option<*mut Instance<M>> {
+        // SAFETY: a non-NULL handle is one the shell returned (caller's contract): a
+        // `#[repr(C)]` Instance whose first field is the u64 magic, so reading 8 bytes is in
+        // bounds.
+        if p.is_null() || unsafe { (p as *const u64).read() } != magic {
+            return None;
+        }
+        Some(p as *mut Instance<M>)
+    }
+
+    /// Mark the instance dead before it is dropped, so a stale handle is refused on a
+    /// best-effort basis.
+    pub fn kill(&mut self) {
+        self.magic = 0;
+    }
+
+    /// Mode.
+    pub fn mode(&self) -> Mode {
+        self.shell.mode
+    }
+
+    /// Current time (communication point, or the time of the last `SetTime`).
+    pub fn time(&self) -> f64 {
+        self.shell.time
+    }
+
+    /// The model (for tests and diagnostics).
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// Whether this is a Model Exchange instance.
+    pub fn is_model_exchange(&self) -> bool {
+        self.interface == Interface::ModelExchange
+    }
+
+    /// The resource folder the instance was given, if any.
+    pub fn resource_dir(&self) -> Option<&std::path::Path> {
+        self.resource_dir.as_deref()
+    }
+
+    pub(crate) fn args(&self) -> InstantiateArgs<'_> {
+        InstantiateArgs {
+            instance_name: self.logger.instance_name(),
+            resource_location: self.resource_location.as_deref(),
+            resource_dir: self.resource_dir.as_deref(),
+            packaged_resources: self.packaged_resources.as_deref(),
+            visible: self.visible,
+            logging_on: self.logging_on_at_instantiation,
+        }
+    }
+
+    /// Log `message` with `status` and move the state machine: Error → Error state,
+    /// Fatal → Fatal state (never downgraded). Returns `status`.
+    pub fn fail(
+        &mut self,
+        func: &'static str,
+        status: Status,
+        message: impl AsRef<str>,
+    ) -> Status {
+        self.logger.log(
+            status,
+            crate::log::category_of(status),
+            &format!("{}: {}", func, message.as_ref()),
+        );
+        self.raise(func, status);
+        status
+    }
+
+    fn raise(&mut self, func: &'static str, status: Status) {
+        if func.ends_with("FreeInstance") {
+            return;
+        }
+        match status {
+            Status::Error if self.shell.mode != Mode::Fatal => {
+                self.shell.mode = Mode::Error
+            }
+            Status::Fatal => self.shell.mode = Mode::Fatal,
+            _ => {}
+        }
+    }
+
+    /// Turn a hook result into the call's status: `Ok` gives whatever the hook reported
+    /// through its context (OK or Warning); `Err` is logged with its status (an `Err` with
+    /// status OK makes no sense and is taken as Warning).
+    pub fn conclude(
+        &mut self,
+        func: &'static str,
+        ctx_status: Status,
+        r: Result<(), ModelError>,
+    ) -> Status {
+        match r {
+            Ok(()) => ctx_status,
+            Err(e) => {
+                let s = match e.status {
+                    Status::Ok => Status::Warning,
+                    s => s,
+                };
+                self.fail(func, s, e.message).max(ctx_status)
+            }
+        }
+    }
+
+    /// A debug message under `logEvents`, formatted only if it would be passed on.
+    pub fn debug(&self, message: impl FnOnce() -> String) {
+        if self.logger.is_enabled(Status::Ok, CAT_EVENTS) {
+            self.logger.log(Status::Ok, CAT_EVENTS, &message());
+        }
+    }
+
+    /// `SetDebugLogging` with the category list already read.
+    pub fn set_debug_logging(&mut self, f: &'static str, on: bool, categories: &[String]) -> Status {
+        let unknown = self.logger.set_debug_logging(on, categories);
+        if unknown.is_empty() {
+            Status::Ok
+        } else {
+            self.fail(
+                f,
+                Status::Warning,
+                format!("unknown log categories ignored: {}", unknown.join(", ")),
+            )
+        }
+    }
+
+    /// The experiment (FMI 2.0 `fmi2SetupExperiment`; FMI 3.0 the arguments of
+    /// `fmi3EnterInitializationMode`).
+    pub fn setup_experiment(
+        &mut self,
+        f: &'static str,
+        tolerance: Option<f64>,
+        start: f64,
+        stop: Option<f64>,
+    ) -> Status {
+        if !start.is_finite() {
+            return self.fail(
+                f,
+                Status::Error,
+                format!("startTime must be finite, got {start}"),
+            );
+        }
+        if let Some(stop) = stop {
+            if stop.is_nan() || stop < start {
+                return self.fail(
+                    f,
+                    Status::Error,
+                    format!("stopTime {stop} is before startTime {start}"),
+                );
+            }
+        }
+        // Some importers pass toleranceDefined with a meaningless tolerance: not worth an error.
+        let mut warn = Status::Ok;
+        let tolerance = match tolerance {
+            Some(tol) if !(tol.is_finite() && tol > 0.0) => {
+                warn = self.fail(
+                    f,
+                    Status::Warning,
+                    format!("tolerance {tol} ignored (must be finite and > 0)"),
+                );
+                None
+            }
+            t => t,
+        };
+        let mut ctx = Ctx::new(&self.logger, f);
+        let r = self
+            .model
+            .setup_experiment(&mut ctx, tolerance, start, stop);
+        let cs = ctx.status().max(warn);
+        let s = self.conclude(f, cs, r);
+        if s <= Status::Warning {
+            self.shell.start_time = start;
+            self.shell.time = start;
+            self.shell.stop_time = stop;
+            self.shell.tolerance = tolerance;
+        }
+        s
+    }
+
+    /// Entering initialisation mode.
+    pub fn enter_initialization_mode(&mut self, f: &'static str) -> Status {
+        let mut ctx = Ctx::new(&self.logger, f);
+        let r = self.model.enter_initialization_mode(&mut ctx);
+        let cs = ctx.status();
+        let s = self.conclude(f, cs, r);
+        if s <= Status::Warning {
+            self.shell.mode = Mode::InitializationMode;
+            self.debug(|| {
+                format!(
+                    "{}: entered initialization mode at t = {}",
+                    f,
+                    self.shell.time
+                )
+            });
+        }
+        s
+    }
+
+    /// Leaving initialisation mode.
+    /// `next` is where the instance goes: event mode (Model Exchange, or FMI 3.0
+    /// Co-Simulation with event mode) or step mode.
+    pub fn exit_initialization_mode(&mut self, f: &'static str, next: Mode) -> Status {
+        let mut ctx = Ctx::new(&self.logger, f);
+        let r = self.model.exit_initialization_mode(&mut ctx);
+        let cs = ctx.status();
+        let s = self.conclude(f, cs, r);
+        if s <= Status::Warning {
+            self.shell.mode = next;
+            self.debug(|| {
+                format!(
+                    "{}: initialized, ready to step at t = {}",
+                    f,
+                    self.shell.time
+                )
+            });
+        }
+        s
+    }
+
+    /// Termination.
+    pub fn terminate(&mut self, f: &'static str) -> Status {
+        let mut ctx = Ctx::new(&self.logger, f);
+        let r = self.model.terminate(&mut ctx);
+        let cs = ctx.status();
+        let s = self.conclude(f, cs, r);
+        if s <= Status::Warning {
+            self.shell.mode = Mode::Terminated;
+            self.debug(|| format!("{}: terminated at t = {}", f, self.shell.time));
+        }
+        s
+    }
+
+    /// Reset: a fresh model from the constructor; logger and settings are kept.
+    pub fn reset(&mut self, f: &'static str) -> Status {
+        let mut ctx = Ctx::new(&self.logger, f);
+        let r = M::instantiate(&mut ctx, &self.args());
+        let cs = ctx.status();
+        match r {
+            Ok(model) => {
+                self.model = model;
+                self.shell = ShellState::fresh();
+                self.strings.clear();
+                self.debug(|| {
+                    format!(
+                        "{}: instance reset to its freshly instantiated state",
+                        f
+                    )
+                });
+                cs
+            }
+            Err(e) => {
+                let s = e.status.max(Status::Error);
+                self.fail(
+                    f,
+                    s,
+                    format!("the model could not be re-created: {}", e.message),
+                )
+            }
+        }
+    }
+}
