@@ -31,14 +31,14 @@ pub const DEFAULT_OUT: &str = "target/fmu/MagSwarmPID.fmu";
 /// modelDescription.xml of the controller with `cfg`'s values as parameter start values, as
 /// the compiled library `lib` writes it.
 pub fn model_description(lib: &Path, cfg: &PidConfig) -> Result<String> {
-    library::xml_from_library(lib, &cfg.to_json(), "controller configuration")
+    library::xml_from_library(lib, &cfg.to_json(), "controller configuration", 2)
 }
 
 /// Package `lib` with `model` and `cfg` baked in as `out`; returns a one-line summary.
 pub fn package(model: &Model, cfg: &PidConfig, lib: &Path, out: &Path) -> Result<String> {
     let so = archive::read_shared_library(lib)?;
     let cfg_json = cfg.to_json();
-    let xml = library::xml_from_library(lib, &cfg_json, "controller configuration")?;
+    let xml = library::xml_from_library(lib, &cfg_json, "controller configuration", 2)?;
     stale::check_model_identifier(lib, &xml, MODEL_IDENTIFIER)?;
     let guid = stale::attr(&xml, "guid").unwrap_or_default();
     let model_json = model.to_json()?;

@@ -30,7 +30,7 @@ pub fn model_description(model: &Model) -> String {
 pub fn package(model: &Model, lib: &Path, out: &Path) -> Result<String> {
     let so = archive::read_shared_library(lib)?;
     let model_json = model.to_json()?;
-    let xml = library::xml_from_library(lib, &model_json, "model")?;
+    let xml = library::xml_from_library(lib, &model_json, "model", 2)?;
     let guid = stale::check_plant_library(lib, &xml)?;
     let doc = documentation_html(&xml, model);
     let bytes = archive::fmu_zip(&[

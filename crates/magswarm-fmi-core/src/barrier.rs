@@ -66,4 +66,3 @@ pub fn barrier<R>(f: impl FnOnce() -> R) -> std::thread::Result<R> {
     IN_BARRIER.with(|d| d.set(d.get().saturating_sub(1)));
     r
 }
-

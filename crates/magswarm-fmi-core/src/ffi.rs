@@ -54,4 +54,3 @@ pub unsafe fn opt_str<'a>(p: *const c_char) -> Option<&'a CStr> {
         Some(unsafe { CStr::from_ptr(p) })
     }
 }
-

@@ -100,6 +100,7 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod barrier;
+pub mod describe;
 pub mod ffi;
 pub mod guid;
 pub mod info;
@@ -108,6 +109,7 @@ pub mod jacobian;
 pub mod log;
 pub mod mode;
 pub mod model;
+pub mod recorder;
 pub mod snapshot;
 pub mod status;
 pub mod table;
@@ -122,7 +124,7 @@ pub use info::{
     BaseUnit, DefaultExperiment, DisplayUnit, LogCategory, ModelInfo, NamingConvention,
     UnitDefinition,
 };
-pub use instance::{Instance, Interface};
+pub use instance::{create, Instance, Interface, Request};
 pub use log::Ctx;
 pub use mode::Mode;
 pub use model::{FmuModel, InstantiateArgs};

@@ -152,10 +152,6 @@ mod tests {
         }
     }
 
-
-
-
-
     #[test]
     fn set_rules_follow_causality() {
         let input = Variable::real("u", 0).input().start_real(0.0);

@@ -182,7 +182,9 @@ pub trait FmuModel: Clone + Send + Sized + 'static {
     /// Model Exchange: the continuous states `x`, in the order of [`crate::table::continuous_states`],
     /// already checked finite and of the right length by the shell.
     fn set_continuous_states(&mut self, _ctx: &mut Ctx<'_>, _x: &[f64]) -> Result<(), ModelError> {
-        Err(ModelError::error("this model has no continuous states to set"))
+        Err(ModelError::error(
+            "this model has no continuous states to set",
+        ))
     }
 
     /// Model Exchange: the continuous states. The default reads each state's value reference with

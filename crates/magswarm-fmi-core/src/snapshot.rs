@@ -287,10 +287,12 @@ pub fn deserialize<M: FmuModel>(
         ))
     })?;
     validate_shell(mode, s.time, s.start_time, s.stop_time, s.tolerance)?;
-    template.restore_state(decoded.model).map_err(|e| ModelError {
-        message: format!("serialized FMU state: the model refused it: {}", e.message),
-        ..e
-    })?;
+    template
+        .restore_state(decoded.model)
+        .map_err(|e| ModelError {
+            message: format!("serialized FMU state: the model refused it: {}", e.message),
+            ..e
+        })?;
     Ok((
         ShellState {
             mode,

@@ -34,6 +34,13 @@ impl Status {
     }
 }
 
+impl From<Status> for i32 {
+    /// The C value (the same in FMI 2.0 and 3.0).
+    fn from(s: Status) -> i32 {
+        s as i32
+    }
+}
+
 /// An error (or warning) from a model hook: a status and a message for the importer's log.
 ///
 /// Returned as `Err` from hooks whose result type is `()`, a `Warning` means "done, with a

@@ -92,7 +92,11 @@ impl Table {
 pub fn with_independent_time(info: &'static ModelInfo) -> &'static ModelInfo {
     use std::sync::Mutex;
     static CACHE: Mutex<Vec<(usize, usize)>> = Mutex::new(Vec::new());
-    if info.variables.iter().any(|v| v.causality == Causality::Independent) {
+    if info
+        .variables
+        .iter()
+        .any(|v| v.causality == Causality::Independent)
+    {
         return info;
     }
     let key = info as *const ModelInfo as usize;

@@ -21,7 +21,7 @@ use std::sync::LazyLock;
 
 use magswarm_fmi2::units;
 use magswarm_fmi2::{
-    Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo, Start,
+    Ctx, DefaultExperiment, FmuModel, InstantiateArgs, LogCategory, ModelError, ModelInfo, Start,
     UnitDefinition, Variable, XmlOptions,
 };
 use magswarm_model::{Confinement, Model, Plant, PlantSnapshot};
@@ -358,7 +358,7 @@ pub struct MagSwarmState {
 
 impl MagSwarm {
     /// A fresh instance whose defaults come from `resource_dir/model.json` if present.
-    pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarm, Fmi2Err> {
+    pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarm, ModelError> {
         Self::with_resources(resource_dir, None)
     }
 
@@ -369,18 +369,18 @@ impl MagSwarm {
     pub fn with_resources(
         resource_dir: Option<&Path>,
         packaged: Option<&Path>,
-    ) -> Result<MagSwarm, Fmi2Err> {
+    ) -> Result<MagSwarm, ModelError> {
         let baked = packaged
             .map(|d| d.join(RESOURCE_MODEL))
             .filter(|p| p.is_file());
         let (default_model, default_source) = match resource_dir.map(|d| d.join(RESOURCE_MODEL)) {
             Some(p) if p.is_file() => (
-                Model::load(&p).map_err(|e| Fmi2Err::error(format!("resources: {e}")))?,
+                Model::load(&p).map_err(|e| ModelError::error(format!("resources: {e}")))?,
                 p.display().to_string(),
             ),
             _ => {
                 if let Some(b) = baked {
-                    return Err(Fmi2Err::error(format!(
+                    return Err(ModelError::error(format!(
                         "this FMU was packaged with the model {} but the resource location \
                          passed to fmi2Instantiate ({}) holds no {RESOURCE_MODEL}; refusing to \
                          simulate the built-in paper model instead (pass the unpacked FMU's \
@@ -433,12 +433,12 @@ impl MagSwarm {
         self.plant = None;
     }
 
-    fn load_model_file(&mut self, path: &str) -> Result<(), Fmi2Err> {
+    fn load_model_file(&mut self, path: &str) -> Result<(), ModelError> {
         if path.is_empty() {
             self.model = self.default_model.clone();
         } else {
             self.model = Model::load(&PathBuf::from(path))
-                .map_err(|e| Fmi2Err::error(format!("model_file: {e}")))?;
+                .map_err(|e| ModelError::error(format!("model_file: {e}")))?;
         }
         self.model_file = path.to_string();
         self.invalidate();
@@ -469,7 +469,7 @@ impl MagSwarm {
 
     /// Every output finite, or an error naming the inputs: an importer must never read NaN
     /// or inf after a call that returned OK or Warning.
-    fn check_outputs(&mut self, when: &str) -> Result<(), Fmi2Err> {
+    fn check_outputs(&mut self, when: &str) -> Result<(), ModelError> {
         let (z, w) = (self.z_m, self.omega);
         let o = self.plant().outputs();
         let sp = o.steady;
@@ -487,7 +487,7 @@ impl MagSwarm {
         ];
         match all.iter().find(|(_, x)| !x.is_finite()) {
             None => Ok(()),
-            Some((name, x)) => Err(Fmi2Err::error(format!(
+            Some((name, x)) => Err(ModelError::error(format!(
                 "{when}: the model cannot be evaluated at z_m = {:e} mm, omega_m = {w:e} rad/s \
                  ({name} = {x}); set inputs the model can evaluate (validated envelope z_m {}-{} \
                  mm, f {}-{} Hz)",
@@ -502,8 +502,8 @@ impl MagSwarm {
 
     /// A restored state must be one the FMU could have reached (the checksum proves the
     /// bytes intact, not honest): the same rules as set values.
-    fn validate_restored(&self) -> Result<(), Fmi2Err> {
-        let bad = |m: String| Err(Fmi2Err::error(format!("FMU state: {m}")));
+    fn validate_restored(&self) -> Result<(), ModelError> {
+        let bad = |m: String| Err(ModelError::error(format!("FMU state: {m}")));
         let floor = -self.model.magnet.z_offset_m;
         if !(self.z_m > floor && self.z_m.is_finite()) {
             return bad(format!(
@@ -548,7 +548,7 @@ impl MagSwarm {
     /// the weight `1 - share` (the slow mode, a state of its own, does not move with it), and
     /// `particle_drift` and `camera_bias` scale them by the observation gain (offsets have no
     /// derivative). Without effects both factors are 1 and the outputs are the state.
-    fn jac_row(&mut self, unknown: u32) -> Result<[f64; 4], Fmi2Err> {
+    fn jac_row(&mut self, unknown: u32) -> Result<[f64; 4], ModelError> {
         let plant = self.plant();
         let sp = plant.outputs().steady;
         let f = sp.field;
@@ -574,7 +574,7 @@ impl MagSwarm {
                 [ju[i][0] * 1e-3, ju[i][1] * 1e-3, js[i][0], js[i][1]]
             }
             other => {
-                return Err(Fmi2Err::error(format!(
+                return Err(ModelError::error(format!(
                     "directional derivative: value reference {other} is not an output or a state derivative"
                 )))
             }
@@ -582,13 +582,13 @@ impl MagSwarm {
     }
 }
 
-fn known_index(vr: u32) -> Result<usize, Fmi2Err> {
+fn known_index(vr: u32) -> Result<usize, ModelError> {
     match vr {
         vr::Z_M => Ok(0),
         vr::OMEGA_M => Ok(1),
         vr::R1 => Ok(2),
         vr::R2 => Ok(3),
-        other => Err(Fmi2Err::error(format!(
+        other => Err(ModelError::error(format!(
             "directional derivative: value reference {other} is not an input (z_m, omega_m) or a state (r1, r2)"
         ))),
     }
@@ -599,7 +599,7 @@ impl FmuModel for MagSwarm {
         &INFO
     }
 
-    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, ModelError> {
         let m = MagSwarm::with_resources(args.resource_dir, args.packaged_resources)?;
         ctx.debug("logModel", format!("default model: {}", m.default_source));
         Ok(m)
@@ -611,10 +611,12 @@ impl FmuModel for MagSwarm {
         tolerance: Option<f64>,
         _start_time: f64,
         _stop_time: Option<f64>,
-    ) -> Result<(), Fmi2Err> {
+    ) -> Result<(), ModelError> {
         if let Some(t) = tolerance {
             if !(t > 0.0 && t < 1.0) {
-                return Err(Fmi2Err::error(format!("tolerance {t} must be in (0, 1)")));
+                return Err(ModelError::error(format!(
+                    "tolerance {t} must be in (0, 1)"
+                )));
             }
             self.rtol = Some(t);
         }
@@ -622,21 +624,21 @@ impl FmuModel for MagSwarm {
         Ok(())
     }
 
-    fn exit_initialization_mode(&mut self, ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+    fn exit_initialization_mode(&mut self, ctx: &mut Ctx<'_>) -> Result<(), ModelError> {
         self.invalidate();
         self.plant();
         self.check_envelope(ctx);
         self.check_outputs("fmi2ExitInitializationMode")
     }
 
-    fn do_step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), Fmi2Err> {
+    fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
         self.check_envelope(ctx);
         let (z, w) = (self.z_m, self.omega);
         let plant = self.plant();
         // The plant's clock is the FMU's (time-dependent effects such as particle drift).
         plant.set_time(current_time);
         plant.step(step).map_err(|e| {
-            Fmi2Err::error(format!(
+            ModelError::error(format!(
                 "doStep: ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
                 z * 1e3,
                 w.abs() / std::f64::consts::TAU,
@@ -649,21 +651,21 @@ impl FmuModel for MagSwarm {
     // Model Exchange: the states are r1, r2 of ODE (4) (the table's der_r1, der_r2 rows).
     const MODEL_EXCHANGE: bool = true;
 
-    fn set_time(&mut self, time: f64) -> Result<(), Fmi2Err> {
+    fn set_time(&mut self, time: f64) -> Result<(), ModelError> {
         self.plant().set_time(time);
         Ok(())
     }
 
-    fn set_continuous_states(&mut self, _ctx: &mut Ctx<'_>, x: &[f64]) -> Result<(), Fmi2Err> {
+    fn set_continuous_states(&mut self, _ctx: &mut Ctx<'_>, x: &[f64]) -> Result<(), ModelError> {
         if self.model.effects.formation_lag.is_some() {
-            return Err(Fmi2Err::error(
+            return Err(ModelError::error(
                 "the formation_lag effect's slow formation mode is integrated inside the FMU \
                  and is not exposed as a continuous state: simulate this model as \
                  Co-Simulation",
             ));
         }
         if x.iter().any(|&r| r <= 0.0) {
-            return Err(Fmi2Err::error(format!(
+            return Err(ModelError::error(format!(
                 "continuous states r1, r2 must be positive radii, got {x:?} m"
             )));
         }
@@ -671,30 +673,30 @@ impl FmuModel for MagSwarm {
         Ok(())
     }
 
-    fn get_continuous_states(&mut self, _states: &[u32], x: &mut [f64]) -> Result<(), Fmi2Err> {
+    fn get_continuous_states(&mut self, _states: &[u32], x: &mut [f64]) -> Result<(), ModelError> {
         let r = self.plant().state();
         x.copy_from_slice(&[r[0] * 1e-3, r[1] * 1e-3]);
         Ok(())
     }
 
-    fn get_derivatives(&mut self, _derivatives: &[u32], dx: &mut [f64]) -> Result<(), Fmi2Err> {
+    fn get_derivatives(&mut self, _derivatives: &[u32], dx: &mut [f64]) -> Result<(), ModelError> {
         let f = self.plant().derivatives();
         dx.copy_from_slice(&[f[0] * 1e-3, f[1] * 1e-3]);
         Ok(())
     }
 
-    fn completed_integrator_step(&mut self, ctx: &mut Ctx<'_>) -> Result<bool, Fmi2Err> {
+    fn completed_integrator_step(&mut self, ctx: &mut Ctx<'_>) -> Result<bool, ModelError> {
         self.check_envelope(ctx);
         Ok(false)
     }
 
-    fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         if vr >= vr::PARAM_BASE {
             let i = (vr - vr::PARAM_BASE) as usize;
             return PARAMS
                 .get(i)
                 .map(|p| (p.get)(&self.model))
-                .ok_or_else(|| Fmi2Err::unknown_vr(magswarm_fmi2::VarType::Real, vr));
+                .ok_or_else(|| ModelError::unknown_vr(magswarm_fmi2::VarType::Real, vr));
         }
         let z = self.z_m;
         let w = self.omega;
@@ -722,19 +724,19 @@ impl FmuModel for MagSwarm {
             }
             vr::R1_START => r_start[0],
             vr::R2_START => r_start[1],
-            other => return Err(Fmi2Err::unknown_vr(magswarm_fmi2::VarType::Real, other)),
+            other => return Err(ModelError::unknown_vr(magswarm_fmi2::VarType::Real, other)),
         })
     }
 
-    fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), Fmi2Err> {
+    fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
             vr::Z_M => {
                 // The model's rule: a z_m that puts the swarm inside the magnet is bad input.
                 self.model
                     .check_z_m(value)
-                    .map_err(|e| Fmi2Err::error(e.to_string()))?;
+                    .map_err(|e| ModelError::error(e.to_string()))?;
                 if value > MAX_Z_M {
-                    return Err(Fmi2Err::error(format!(
+                    return Err(ModelError::error(format!(
                         "z_m = {value:e} m is beyond {MAX_Z_M} m, where the field model has \
                          nothing left to say (validated envelope {}-{} mm)",
                         self.model.envelope.z_min_m * 1e3,
@@ -745,7 +747,7 @@ impl FmuModel for MagSwarm {
             }
             vr::OMEGA_M => {
                 if value.abs() > MAX_OMEGA {
-                    return Err(Fmi2Err::error(format!(
+                    return Err(ModelError::error(format!(
                         "omega_m = {value:e} rad/s is beyond +-{MAX_OMEGA} rad/s (validated \
                          envelope {}-{} Hz)",
                         self.model.envelope.f_min_hz, self.model.envelope.f_max_hz
@@ -765,29 +767,32 @@ impl FmuModel for MagSwarm {
                 let i = (v - vr::PARAM_BASE) as usize;
                 let p = PARAMS
                     .get(i)
-                    .ok_or_else(|| Fmi2Err::unknown_vr(magswarm_fmi2::VarType::Real, v))?;
+                    .ok_or_else(|| ModelError::unknown_vr(magswarm_fmi2::VarType::Real, v))?;
                 let mut m = self.model.clone();
                 (p.set)(&mut m, value);
                 m.validate()
-                    .map_err(|e| Fmi2Err::error(format!("{}: {}", p.name, e.message)))?;
+                    .map_err(|e| ModelError::error(format!("{}: {}", p.name, e.message)))?;
                 self.model = m;
                 self.invalidate();
             }
-            other => return Err(Fmi2Err::unknown_vr(magswarm_fmi2::VarType::Real, other)),
+            other => return Err(ModelError::unknown_vr(magswarm_fmi2::VarType::Real, other)),
         }
         Ok(())
     }
 
-    fn get_boolean(&mut self, vr: u32) -> Result<bool, Fmi2Err> {
+    fn get_boolean(&mut self, vr: u32) -> Result<bool, ModelError> {
         match vr {
             vr::SETTLE_AT_START => Ok(self.settle_at_start),
             vr::SCHEDULED => Ok(self.model.dynamics.confinement == Confinement::Scheduled),
             vr::IN_ENVELOPE => Ok(!self.plant().validity().extrapolating()),
-            other => Err(Fmi2Err::unknown_vr(magswarm_fmi2::VarType::Boolean, other)),
+            other => Err(ModelError::unknown_vr(
+                magswarm_fmi2::VarType::Boolean,
+                other,
+            )),
         }
     }
 
-    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: bool) -> Result<(), Fmi2Err> {
+    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: bool) -> Result<(), ModelError> {
         match vr {
             vr::SETTLE_AT_START => self.settle_at_start = value,
             vr::SCHEDULED => {
@@ -797,33 +802,44 @@ impl FmuModel for MagSwarm {
                     Confinement::Constant
                 }
             }
-            other => return Err(Fmi2Err::unknown_vr(magswarm_fmi2::VarType::Boolean, other)),
+            other => {
+                return Err(ModelError::unknown_vr(
+                    magswarm_fmi2::VarType::Boolean,
+                    other,
+                ))
+            }
         }
         self.invalidate();
         Ok(())
     }
 
-    fn get_string(&mut self, vr: u32) -> Result<String, Fmi2Err> {
+    fn get_string(&mut self, vr: u32) -> Result<String, ModelError> {
         match vr {
             vr::MODEL_FILE => Ok(self.model_file.clone()),
-            other => Err(Fmi2Err::unknown_vr(magswarm_fmi2::VarType::String, other)),
+            other => Err(ModelError::unknown_vr(
+                magswarm_fmi2::VarType::String,
+                other,
+            )),
         }
     }
 
-    fn set_string(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: &str) -> Result<(), Fmi2Err> {
+    fn set_string(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: &str) -> Result<(), ModelError> {
         match vr {
             vr::MODEL_FILE => {
                 self.load_model_file(value)?;
                 ctx.debug("logModel", format!("model_file {value:?} loaded"));
                 Ok(())
             }
-            other => Err(Fmi2Err::unknown_vr(magswarm_fmi2::VarType::String, other)),
+            other => Err(ModelError::unknown_vr(
+                magswarm_fmi2::VarType::String,
+                other,
+            )),
         }
     }
 
     type State = MagSwarmState;
 
-    fn save_state(&self) -> Result<MagSwarmState, Fmi2Err> {
+    fn save_state(&self) -> Result<MagSwarmState, ModelError> {
         Ok(MagSwarmState {
             model: self.model.clone(),
             model_file: self.model_file.clone(),
@@ -837,10 +853,10 @@ impl FmuModel for MagSwarm {
         })
     }
 
-    fn restore_state(&mut self, s: MagSwarmState) -> Result<(), Fmi2Err> {
+    fn restore_state(&mut self, s: MagSwarmState) -> Result<(), ModelError> {
         s.model
             .validate()
-            .map_err(|e| Fmi2Err::error(format!("FMU state: model: {e}")))?;
+            .map_err(|e| ModelError::error(format!("FMU state: model: {e}")))?;
         let mut candidate = self.clone();
         candidate.plant = s
             .plant
@@ -859,20 +875,15 @@ impl FmuModel for MagSwarm {
         Ok(())
     }
 
-    fn directional_derivative(
-        &mut self,
-        unknowns: &[u32],
-        knowns: &[u32],
-        dv_known: &[f64],
-    ) -> Result<Vec<f64>, Fmi2Err> {
+    fn jacobian(&mut self, unknowns: &[u32], knowns: &[u32]) -> Result<Vec<f64>, ModelError> {
         let idx: Vec<usize> = knowns
             .iter()
             .map(|&k| known_index(k))
             .collect::<Result<_, _>>()?;
-        let mut out = Vec::with_capacity(unknowns.len());
+        let mut out = Vec::with_capacity(unknowns.len() * knowns.len());
         for &u in unknowns {
             let row = self.jac_row(u)?;
-            out.push(idx.iter().zip(dv_known).map(|(&j, dv)| row[j] * dv).sum());
+            out.extend(idx.iter().map(|&j| row[j]));
         }
         Ok(out)
     }
@@ -884,12 +895,12 @@ magswarm_fmi2::export_fmi2!(MagSwarm);
 // Packaging asks the compiled library for its own XML (`fmu_model_description`), with the
 // parameter start values of the model JSON to bake in.
 #[cfg(feature = "export")]
-magswarm_fmi2::export_describe!(|json: Option<&str>| {
+magswarm_fmi_core::export_describe!(|json: Option<&str>, version: u32| {
     let model = match json {
         None => Model::paper(),
         Some(text) => Model::from_json_str(text, "model").ok()?,
     };
-    Some(model_description(&model, None))
+    (version == 2).then(|| model_description(&model, None))
 });
 
 #[cfg(test)]

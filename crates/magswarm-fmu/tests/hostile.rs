@@ -86,7 +86,7 @@ fn forged_states_are_validated_like_set_values() {
     let mut m = MagSwarm::new(None).unwrap();
     let mut ctx = magswarm_fmi2::Ctx::silent();
     m.exit_initialization_mode(&mut ctx).unwrap();
-    m.do_step(&mut ctx, 0.0, 0.1).unwrap();
+    m.step(&mut ctx, 0.0, 0.1).unwrap();
     let good = m.save_state().unwrap();
     assert!(m.clone().restore_state(good.clone()).is_ok());
     for (field, value) in [
@@ -154,7 +154,7 @@ fn serialized_plant_states_replay_and_damaged_ones_are_refused() {
         b.get_real(vr::R1).1.to_bits()
     );
     let guid = magswarm_fmi2::guid::guid_u128(MagSwarm::model_info());
-    let payload = magswarm_fmi2::snapshot::unframe(guid, MagSwarm::STATE_VERSION, &bytes)
+    let payload = magswarm_fmi_core::snapshot::unframe(guid, MagSwarm::STATE_VERSION, &bytes)
         .unwrap()
         .to_vec();
     let mut flipped = bytes.clone();
@@ -165,12 +165,12 @@ fn serialized_plant_states_replay_and_damaged_ones_are_refused() {
         ("bit flip", flipped, "CRC-32 checksum mismatch"),
         (
             "another FMU",
-            magswarm_fmi2::snapshot::frame(!guid, MagSwarm::STATE_VERSION, &payload),
+            magswarm_fmi_core::snapshot::frame(!guid, MagSwarm::STATE_VERSION, &payload),
             "different FMU",
         ),
         (
             "another state version",
-            magswarm_fmi2::snapshot::frame(guid, MagSwarm::STATE_VERSION + 1, &payload),
+            magswarm_fmi_core::snapshot::frame(guid, MagSwarm::STATE_VERSION + 1, &payload),
             "this build of the FMU reads version",
         ),
     ] {

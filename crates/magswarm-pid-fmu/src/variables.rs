@@ -116,31 +116,31 @@ pub const MAX_TIME: f64 = 1e12;
 
 /// Whether every numeric parameter of `cfg` lies in its [`ParamSpec::range`] and the
 /// configuration is consistent ([`PidConfig::validate`]); the error names the parameter.
-pub fn check_config(cfg: &PidConfig) -> Result<(), Fmi2Err> {
+pub fn check_config(cfg: &PidConfig) -> Result<(), ModelError> {
     for p in PARAMS {
         check_param(p, (p.get)(cfg))?;
     }
     cfg.validate()
-        .map_err(|e| Fmi2Err::error(format!("controller configuration: {e}")))
+        .map_err(|e| ModelError::error(format!("controller configuration: {e}")))
 }
 
-pub(crate) fn check_param(p: &ParamSpec, v: f64) -> Result<(), Fmi2Err> {
+pub(crate) fn check_param(p: &ParamSpec, v: f64) -> Result<(), ModelError> {
     let (lo, hi) = p.range;
     if v >= lo && v <= hi {
         Ok(())
     } else {
-        Err(Fmi2Err::error(format!(
+        Err(ModelError::error(format!(
             "{} = {v} {} is outside the accepted range [{lo}, {hi}] {}",
             p.name, p.unit, p.unit
         )))
     }
 }
 
-pub(crate) fn check_abs(name: &str, v: f64, max: f64, unit: &str) -> Result<(), Fmi2Err> {
+pub(crate) fn check_abs(name: &str, v: f64, max: f64, unit: &str) -> Result<(), ModelError> {
     if v.is_finite() && v.abs() <= max {
         Ok(())
     } else {
-        Err(Fmi2Err::error(format!(
+        Err(ModelError::error(format!(
             "{name} = {v} {unit} is outside the accepted range [-{max}, {max}] {unit}"
         )))
     }

@@ -202,14 +202,14 @@ fn forged_controller_states_are_refused() {
     let mut ctx = magswarm_fmi2::Ctx::silent();
     m.setup_experiment(&mut ctx, None, 0.0, None).unwrap();
     m.exit_initialization_mode(&mut ctx).unwrap();
-    m.do_step(&mut ctx, 0.0, 0.5).unwrap();
+    m.step(&mut ctx, 0.0, 0.5).unwrap();
     let good = m.save_state().unwrap();
     assert!(m.clone().restore_state(good.clone()).is_ok());
     for (what, forged) in forgeries(&good) {
         let mut victim = m.clone();
         let t0 = Instant::now();
         let r = victim.restore_state(forged);
-        let r = r.and_then(|_| victim.do_step(&mut ctx, 0.5, 0.05));
+        let r = r.and_then(|_| victim.step(&mut ctx, 0.5, 0.05));
         assert!(r.is_err(), "{what} was accepted");
         assert!(t0.elapsed() < Duration::from_secs(2), "{what}");
     }

@@ -40,7 +40,11 @@ impl<M: FmuModel> Instance<M> {
     /// Get the FMU state: a new snapshot if `current` is NULL (returned as the new handle),
     /// else overwrite the snapshot `current` names (which the standards say was returned
     /// earlier and not freed).
-    pub fn get_fmu_state(&mut self, f: &'static str, current: *mut c_void) -> Result<*mut c_void, Status> {
+    pub fn get_fmu_state(
+        &mut self,
+        f: &'static str,
+        current: *mut c_void,
+    ) -> Result<*mut c_void, Status> {
         if current.is_null() {
             let snap = Snapshot {
                 magic: SNAPSHOT_MAGIC,
@@ -78,7 +82,11 @@ impl<M: FmuModel> Instance<M> {
             _ => false,
         };
         if foreign {
-            let kind = if me { "Model Exchange" } else { "Co-Simulation" };
+            let kind = if me {
+                "Model Exchange"
+            } else {
+                "Co-Simulation"
+            };
             return self.fail(
                 f,
                 Status::Error,
@@ -143,7 +151,11 @@ impl<M: FmuModel> Instance<M> {
 
     /// Deserialize `bytes` into a new FMU state (every check of [`snapshot::deserialize`]),
     /// returned as its handle.
-    pub fn deserialize_fmu_state(&mut self, f: &'static str, bytes: &[u8]) -> Result<*mut c_void, Status> {
+    pub fn deserialize_fmu_state(
+        &mut self,
+        f: &'static str,
+        bytes: &[u8],
+    ) -> Result<*mut c_void, Status> {
         match snapshot::deserialize(self.guid, bytes, self.model.clone()) {
             Ok((shell, model)) => Ok(self.hand_out(Snapshot {
                 magic: SNAPSHOT_MAGIC,

@@ -29,11 +29,7 @@ impl<M: FmuModel> Instance<M> {
     /// Set the integrator's time (`fmi2SetTime`, `fmi3SetTime`).
     pub fn set_time(&mut self, f: &'static str, t: f64) -> Status {
         if !t.is_finite() {
-            return self.fail(
-                f,
-                Status::Error,
-                format!("time must be finite, got {t}"),
-            );
+            return self.fail(f, Status::Error, format!("time must be finite, got {t}"));
         }
         let now = self.shell.time;
         if t < now - TIME_TOLERANCE * now.abs().max(1.0) && self.shell.mode == Mode::EventMode {

@@ -16,7 +16,7 @@ use std::ffi::CString;
 use std::path::PathBuf;
 
 use crate::info::ModelInfo;
-use crate::log::{all_categories, Ctx, LogSink, Logger, CAT_EVENTS};
+use crate::log::{all_categories, Ctx, LogSink, Logger, CAT_ERROR, CAT_EVENTS, CAT_WARNING};
 use crate::mode::Mode;
 use crate::model::{FmuModel, InstantiateArgs};
 use crate::snapshot::{ShellState, Snapshot};
@@ -43,28 +43,182 @@ pub enum Interface {
     ModelExchange,
 }
 
-/// What a shell has found out at instantiation, to build an [`Instance`] from.
-pub struct Setup {
+/// What the importer passed at instantiation, as a shell read it from its C arguments.
+pub struct Request {
     /// The shell's magic word for its live instances (first field of the instance).
     pub magic: u64,
-    /// The variable table (a shell may add the independent variable to the model's).
+    /// The variable table (a shell may have added the independent variable to the model's).
     pub info: &'static ModelInfo,
-    /// The instance name.
-    pub name: String,
-    /// Where the messages go.
+    /// The C function, for messages (`fmi2Instantiate`, `fmi3InstantiateCoSimulation`).
+    pub function: &'static str,
+    /// The argument that carries the GUID, for messages (`fmuGUID`, `instantiationToken`).
+    pub token_arg: &'static str,
+    /// The instance name (`None`: NULL).
+    pub name: Option<String>,
+    /// The GUID / instantiation token passed (`None`: NULL).
+    pub token: Option<String>,
+    /// The resource location passed (`None`: NULL).
+    pub resource_location: Option<String>,
+    /// The interface asked for, or why the request names none the FMU offers.
+    pub interface: Result<Interface, String>,
+    /// Where the messages go (`None`: the importer gave no logger).
     pub sink: Option<LogSink>,
-    /// `loggingOn`.
-    pub logging_on: bool,
     /// `visible`.
     pub visible: bool,
-    /// The resource location as passed.
-    pub resource_location: Option<String>,
-    /// It decoded to a folder that exists.
-    pub resource_dir: Option<PathBuf>,
-    /// The `resources/` folder of the unpacked FMU this binary was loaded from.
-    pub packaged_resources: Option<PathBuf>,
-    /// The interface asked for.
-    pub interface: Interface,
+    /// `loggingOn`.
+    pub logging_on: bool,
+}
+
+/// Create an instance for `req`: every check of instantiation (name, interface, table,
+/// GUID, resource location) and the model's constructor, under the panic barrier. `None`
+/// after logging why through the importer's logger (if it gave one).
+pub fn create<M: FmuModel>(req: Request) -> Option<Box<Instance<M>>> {
+    let info = req.info;
+    let f = req.function;
+    let known = all_categories(info.log_categories)
+        .iter()
+        .map(|c| c.name)
+        .collect();
+    let logger = Logger::new(
+        req.sink,
+        req.name.as_deref().unwrap_or("?"),
+        req.logging_on,
+        known,
+    );
+    let warn = |logger: &Logger, msg: String| {
+        logger.log(Status::Warning, CAT_WARNING, &format!("{f}: {msg}"));
+    };
+    let checked = (|| -> Result<(String, Interface, Table, u128), String> {
+        let name = match req.name {
+            Some(n) if !n.trim().is_empty() => n,
+            Some(_) => return Err("instanceName must not be empty".into()),
+            None => return Err("instanceName must not be NULL".into()),
+        };
+        let interface = req.interface?;
+        if interface == Interface::ModelExchange && !M::MODEL_EXCHANGE {
+            return Err(format!(
+                "Model Exchange requested, but {} implements Co-Simulation only (instantiate \
+                 it for Co-Simulation)",
+                info.model_identifier
+            ));
+        }
+        let table = Table::new(info).map_err(|p| {
+            format!(
+                "the FMU's variable table is invalid (a bug in the FMU): {}",
+                p.join("; ")
+            )
+        })?;
+        let guid = crate::guid::guid_u128(info);
+        let expected = crate::guid::format_guid(guid);
+        let given = req
+            .token
+            .ok_or_else(|| format!("{} must not be NULL", req.token_arg))?;
+        if given.trim() != expected {
+            return Err(format!(
+                "{} mismatch: the importer passed {given} but this binary is {expected}; the \
+                 modelDescription.xml does not belong to this binary",
+                req.token_arg
+            ));
+        }
+        Ok((name, interface, table, guid))
+    })();
+    let (name, interface, table, guid) = match checked {
+        Ok(c) => c,
+        Err(msg) => {
+            logger.log(Status::Error, CAT_ERROR, &format!("{f}: {msg}"));
+            return None;
+        }
+    };
+    let location = req.resource_location;
+    let dir = match location.as_deref().map(crate::uri::resource_dir) {
+        None => None,
+        Some(Ok(d)) => d,
+        Some(Err(e)) => {
+            warn(&logger, format!("{e}; continuing without resources"));
+            None
+        }
+    };
+    // A location that names no folder is the importer's mistake: say so, and give the
+    // model no resource folder (it decides whether it can do without).
+    let dir = match dir {
+        Some(d) if !d.is_dir() => {
+            warn(
+                &logger,
+                format!(
+                    "resource location {:?} names the folder {} which does not exist; \
+                     continuing without resources",
+                    location.as_deref().unwrap_or_default(),
+                    d.display()
+                ),
+            );
+            None
+        }
+        d => d,
+    };
+    let packaged = crate::uri::packaged_resources();
+    let built = crate::barrier::barrier(|| {
+        let args = InstantiateArgs {
+            instance_name: &name,
+            resource_location: location.as_deref(),
+            resource_dir: dir.as_deref(),
+            packaged_resources: packaged.as_deref(),
+            visible: req.visible,
+            logging_on: req.logging_on,
+        };
+        let mut ctx = Ctx::new(&logger, f);
+        M::instantiate(&mut ctx, &args)
+    });
+    let model = match built {
+        Ok(Ok(m)) => m,
+        Ok(Err(e)) => {
+            let msg = format!("{f}: the model could not be created: {}", e.message);
+            logger.log(Status::Error, CAT_ERROR, &msg);
+            return None;
+        }
+        Err(payload) => {
+            let msg = crate::barrier::panic_message(&*payload);
+            crate::barrier::drop_payload(payload);
+            let msg = format!("{f}: internal error: the model panicked: {msg}");
+            logger.log(Status::Error, CAT_ERROR, &msg);
+            return None;
+        }
+    };
+    let me_states = match interface {
+        Interface::ModelExchange => crate::table::continuous_states(info),
+        Interface::CoSimulation => (Vec::new(), Vec::new()),
+    };
+    let inst = Box::new(Instance {
+        magic: req.magic,
+        guid,
+        table,
+        logger,
+        resource_location: location,
+        resource_dir: dir,
+        packaged_resources: packaged,
+        visible: req.visible,
+        logging_on_at_instantiation: req.logging_on,
+        shell: ShellState::fresh(),
+        model,
+        strings: Vec::new(),
+        states: Vec::new(),
+        interface,
+        me_states,
+    });
+    inst.debug(|| {
+        format!(
+            "{f}: {} {} instantiated for {} (resources: {})",
+            info.model_identifier,
+            info.version,
+            match interface {
+                Interface::CoSimulation => "Co-Simulation",
+                Interface::ModelExchange => "Model Exchange",
+            },
+            inst.resource_dir
+                .as_ref()
+                .map_or("none".to_string(), |d| d.display().to_string())
+        )
+    });
+    Some(inst)
 }
 
 /// An instance of model `M` behind the importer's opaque handle.
@@ -114,54 +268,6 @@ impl<M: FmuModel> Drop for Instance<M> {
 }
 
 impl<M: FmuModel> Instance<M> {
-    /// A new instance: the table validated, the model constructed. `Err` names what failed
-    /// (the shell logs it and returns NULL).
-    pub fn new(setup: Setup) -> Result<Box<Instance<M>>, String> {
-        let table = Table::new(setup.info).map_err(|p| {
-            format!(
-                "the FMU's variable table is invalid (a bug in the FMU): {}",
-                p.join("; ")
-            )
-        })?;
-        let known = all_categories(setup.info.log_categories)
-            .iter()
-            .map(|c| c.name)
-            .collect();
-        let logger = Logger::new(setup.sink, &setup.name, setup.logging_on, known);
-        let args = InstantiateArgs {
-            instance_name: &setup.name,
-            resource_location: setup.resource_location.as_deref(),
-            resource_dir: setup.resource_dir.as_deref(),
-            packaged_resources: setup.packaged_resources.as_deref(),
-            visible: setup.visible,
-            logging_on: setup.logging_on,
-        };
-        let mut ctx = Ctx::new(&logger, "instantiate");
-        let model = M::instantiate(&mut ctx, &args)
-            .map_err(|e| format!("the model could not be created: {}", e.message))?;
-        let me_states = match setup.interface {
-            Interface::ModelExchange => crate::table::continuous_states(setup.info),
-            Interface::CoSimulation => (Vec::new(), Vec::new()),
-        };
-        Ok(Box::new(Instance {
-            magic: setup.magic,
-            guid: crate::guid::guid_u128(setup.info),
-            table,
-            logger,
-            resource_location: setup.resource_location,
-            resource_dir: setup.resource_dir,
-            packaged_resources: setup.packaged_resources,
-            visible: setup.visible,
-            logging_on_at_instantiation: setup.logging_on,
-            shell: ShellState::fresh(),
-            model,
-            strings: Vec::new(),
-            states: Vec::new(),
-            interface: setup.interface,
-            me_states,
-        }))
-    }
-
     /// The instance behind an importer's handle, if it carries `magic` (a live instance of
     /// the shell that uses that word).
     ///
@@ -222,12 +328,7 @@ impl<M: FmuModel> Instance<M> {
 
     /// Log `message` with `status` and move the state machine: Error → Error state,
     /// Fatal → Fatal state (never downgraded). Returns `status`.
-    pub fn fail(
-        &mut self,
-        func: &'static str,
-        status: Status,
-        message: impl AsRef<str>,
-    ) -> Status {
+    pub fn fail(&mut self, func: &'static str, status: Status, message: impl AsRef<str>) -> Status {
         self.logger.log(
             status,
             crate::log::category_of(status),
@@ -242,9 +343,7 @@ impl<M: FmuModel> Instance<M> {
             return;
         }
         match status {
-            Status::Error if self.shell.mode != Mode::Fatal => {
-                self.shell.mode = Mode::Error
-            }
+            Status::Error if self.shell.mode != Mode::Fatal => self.shell.mode = Mode::Error,
             Status::Fatal => self.shell.mode = Mode::Fatal,
             _ => {}
         }
@@ -279,7 +378,12 @@ impl<M: FmuModel> Instance<M> {
     }
 
     /// `SetDebugLogging` with the category list already read.
-    pub fn set_debug_logging(&mut self, f: &'static str, on: bool, categories: &[String]) -> Status {
+    pub fn set_debug_logging(
+        &mut self,
+        f: &'static str,
+        on: bool,
+        categories: &[String],
+    ) -> Status {
         let unknown = self.logger.set_debug_logging(on, categories);
         if unknown.is_empty() {
             Status::Ok
@@ -356,8 +460,7 @@ impl<M: FmuModel> Instance<M> {
             self.debug(|| {
                 format!(
                     "{}: entered initialization mode at t = {}",
-                    f,
-                    self.shell.time
+                    f, self.shell.time
                 )
             });
         }
@@ -377,8 +480,7 @@ impl<M: FmuModel> Instance<M> {
             self.debug(|| {
                 format!(
                     "{}: initialized, ready to step at t = {}",
-                    f,
-                    self.shell.time
+                    f, self.shell.time
                 )
             });
         }
@@ -408,12 +510,7 @@ impl<M: FmuModel> Instance<M> {
                 self.model = model;
                 self.shell = ShellState::fresh();
                 self.strings.clear();
-                self.debug(|| {
-                    format!(
-                        "{}: instance reset to its freshly instantiated state",
-                        f
-                    )
-                });
+                self.debug(|| format!("{}: instance reset to its freshly instantiated state", f));
                 cs
             }
             Err(e) => {

@@ -44,7 +44,7 @@ impl<M: FmuModel> Instance<M> {
                 return self.fail(
                     f,
                     Status::Error,
-                    format!("step from {current:?} by {step:?} would pass the stop time {stop:?} of the experiment"),
+                    format!("step from {current:?} by {step:?} would pass the stopTime {stop:?} of the experiment"),
                 );
             }
         }
@@ -119,16 +119,17 @@ impl<M: FmuModel> Instance<M> {
 
     /// Directional derivative `sensitivity = J seed` (`fmi2GetDirectionalDerivative`,
     /// `fmi3GetDirectionalDerivative`), `seed` over the knowns, `sensitivity` over the
-    /// unknowns (the shell checked both lengths).
+    /// unknowns (the shell checked both lengths). `seed_name` names the seed argument in
+    /// messages (`dvKnown`, `seed`).
     pub fn directional_derivative(
         &mut self,
         f: &'static str,
-        unknowns: &[u32],
-        knowns: &[u32],
+        (unknowns, knowns): (&[u32], &[u32]),
         seed: &[f64],
+        seed_name: &str,
         sensitivity: &mut [f64],
     ) -> Status {
-        match self.checked_jacobian(f, unknowns, knowns, seed, "seed", knowns) {
+        match self.checked_jacobian(f, unknowns, knowns, seed, seed_name, knowns) {
             Ok(j) => {
                 let n = knowns.len();
                 for (i, out) in sensitivity.iter_mut().enumerate() {

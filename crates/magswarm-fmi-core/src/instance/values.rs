@@ -67,7 +67,12 @@ impl<M: FmuModel> Instance<M> {
 
     /// Get Booleans, written as the shell's C type (`fmi2Boolean` is an int, `fmi3Boolean`
     /// a `bool`) from 1 or 0.
-    pub fn get_boolean<B: From<bool>>(&mut self, f: &'static str, vrs: &[u32], out: &mut [B]) -> Status {
+    pub fn get_boolean<B: From<bool>>(
+        &mut self,
+        f: &'static str,
+        vrs: &[u32],
+        out: &mut [B],
+    ) -> Status {
         if let Err(s) = self.check_get(f, vrs, VarType::Boolean) {
             return s;
         }
@@ -81,7 +86,12 @@ impl<M: FmuModel> Instance<M> {
     }
 
     /// Get Strings: fills `out` with pointers into strings owned by the instance.
-    pub fn get_string(&mut self, f: &'static str, vrs: &[u32], out: &mut [*const std::ffi::c_char]) -> Status {
+    pub fn get_string(
+        &mut self,
+        f: &'static str,
+        vrs: &[u32],
+        out: &mut [*const std::ffi::c_char],
+    ) -> Status {
         if let Err(s) = self.check_get(f, vrs, VarType::String) {
             return s;
         }
