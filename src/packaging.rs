@@ -1,4 +1,5 @@
-//! `magswarm fmu`: build and package `MagSwarm.fmu` (or, with `--pid`, `MagSwarmPID.fmu`).
+//! `magswarm fmu`: build and package `MagSwarm.fmu` (or, with `--pid`, `MagSwarmPID.fmu`) in
+//! FMI 2.0 (the default) or FMI 3.0 (`--fmi-version 3`).
 //!
 //! This module only turns the command's arguments into inputs (model, controller
 //! configuration, library path); the archives themselves are built by the workspace crate
@@ -19,18 +20,17 @@ pub const DEFAULT_OUT: &str = plant::DEFAULT_OUT;
 
 /// Run the command.
 pub fn run(a: &FmuArgs) -> Result<()> {
-    if a.fmi_version == 3 {
-        anyhow::bail!(
-            "--fmi-version 3: FMI 3.0 export is not implemented yet; this build writes FMI 2.0 \
-             only (Co-Simulation and Model Exchange in one FMU: drop --fmi-version or pass 2)"
-        );
-    }
+    let version = FmiVersion::from_major(u32::from(a.fmi_version))
+        .with_context(|| format!("--fmi-version {}: expected 2 or 3", a.fmi_version))?;
     if a.pid {
-        return run_pid(a);
+        return run_pid(a, version);
     }
     let model = load_model(a)?;
     if let Some(xml_path) = &a.xml {
-        write_atomic(xml_path, plant::model_description(&model).as_bytes())?;
+        write_atomic(
+            xml_path,
+            plant::model_description(&model, version).as_bytes(),
+        )?;
         println!("wrote {}", xml_path.display());
         return Ok(());
     }
@@ -41,15 +41,15 @@ pub fn run(a: &FmuArgs) -> Result<()> {
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(plant::DEFAULT_OUT));
-    println!("{}", plant::package(&model, &lib, &out)?);
+        .unwrap_or_else(|| PathBuf::from(plant::default_out(version)));
+    println!("{}", plant::package(&model, &lib, &out, version)?);
     Ok(())
 }
 
 /// `magswarm fmu --pid`: the controller FMU. `--model` is the plant model the controller
 /// assumes, `--pid-config` its configuration, `--lib` the controller's library; `--xml` needs
 /// the library too (the controller's XML comes only from its compiled `.so`).
-fn run_pid(a: &FmuArgs) -> Result<()> {
+fn run_pid(a: &FmuArgs, version: FmiVersion) -> Result<()> {
     let model = load_model(a)?;
     let cfg = match &a.pid_config {
         Some(p) => {
@@ -64,15 +64,18 @@ fn run_pid(a: &FmuArgs) -> Result<()> {
         None => locate_library(pid::CRATE, pid::LIB_FILE, pid::LIB_ENV, a.no_build)?,
     };
     if let Some(xml_path) = &a.xml {
-        write_atomic(xml_path, pid::model_description(&lib, &cfg)?.as_bytes())?;
+        write_atomic(
+            xml_path,
+            pid::model_description(&lib, &cfg, version)?.as_bytes(),
+        )?;
         println!("wrote {}", xml_path.display());
         return Ok(());
     }
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(pid::DEFAULT_OUT));
-    println!("{}", pid::package(&model, &cfg, &lib, &out)?);
+        .unwrap_or_else(|| PathBuf::from(pid::default_out(version)));
+    println!("{}", pid::package(&model, &cfg, &lib, &out, version)?);
     Ok(())
 }
 

@@ -2,7 +2,9 @@
 //! when the input is exactly 0.5. The shell catches the panic (the importer gets fmi2Error),
 //! and the driver's invariant "no panic inside the FMU" turns it into a fuzzer crash.
 
-use magswarm_fmi2::{Ctx, FmuModel, InstantiateArgs, ModelError, ModelInfo, VarType, Variable};
+use magswarm_fmi::fmi2::{
+    Ctx, FmuModel, InstantiateArgs, ModelError, ModelInfo, VarType, Variable,
+};
 
 static VARIABLES: [Variable; 2] = [
     Variable::real("u", 0).input().start_real(0.0).unit("1"),
@@ -18,9 +20,9 @@ static INFO: ModelInfo = ModelInfo {
     copyright: None,
     license: None,
     generation_tool: "magswarm-fuzz",
-    naming_convention: magswarm_fmi2::NamingConvention::Flat,
+    naming_convention: magswarm_fmi::fmi2::NamingConvention::Flat,
     default_experiment: None,
-    units: &[magswarm_fmi2::units::ONE],
+    units: &[magswarm_fmi::fmi2::units::ONE],
     log_categories: &[],
     variables: &VARIABLES,
 };

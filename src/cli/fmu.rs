@@ -10,7 +10,7 @@ pub struct FmuArgs {
     #[arg(long)]
     pub model: Option<PathBuf>,
     /// Output path of the FMU [default: target/fmu/MagSwarm.fmu, with --pid
-    /// target/fmu/MagSwarmPID.fmu].
+    /// target/fmu/MagSwarmPID.fmu; with --fmi-version 3 the same names under target/fmu/fmi3/].
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// The compiled shared library to package (default: build it with cargo, or take
@@ -28,9 +28,9 @@ pub struct FmuArgs {
     /// --lib the controller's libmagswarm_pid_fmu.so).
     #[arg(long)]
     pub pid: bool,
-    /// FMI version of the FMU: 2 (Co-Simulation and Model Exchange in one FMU). Version 3
-    /// is accepted by the parser and refused with a message: the FMI 3.0 shell is not built
-    /// yet.
+    /// FMI version of the FMU: 2 or 3. The plant carries Co-Simulation and Model Exchange in
+    /// one FMU in both versions (same variable names, units and value references; FMI 3.0
+    /// adds the independent variable `time`); the controller (--pid) is Co-Simulation.
     #[arg(long, value_name = "2|3", default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
     pub fmi_version: u8,
     /// With --pid: controller configuration JSON (magswarm-pid/1) baked into resources/pid.json.

@@ -9,7 +9,7 @@
 use quick_xml::events::{BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 
-use crate::info::ModelInfo;
+use crate::info::{ModelInfo, UnitDefinition};
 use crate::log::all_categories;
 use crate::variable::{fmt_real, Start};
 
@@ -110,8 +110,17 @@ pub fn push_root_attributes(root: &mut BytesStart<'_>, info: &ModelInfo, options
     ));
 }
 
-/// `<UnitDefinitions>` (nothing if the model has no units).
-pub fn write_unit_definitions(w: &mut Writer<Vec<u8>>, info: &ModelInfo) -> std::io::Result<()> {
+/// `<UnitDefinitions>` (nothing if the model has no units). With `ampere_kelvin = false`
+/// a unit whose SI decomposition has an ampere or kelvin exponent gets no `<BaseUnit>`
+/// (which both standards make optional): the FMI 3.0 writer does that because rust-fmi's
+/// XML schema (`fmi-schema` 0.8, used by `fmi-sim` and the `fmi` crate) spells those two
+/// attributes `a` and `k` and rejects the standard's `A` and `K`, so it could not load the
+/// FMU at all.
+pub fn write_unit_definitions(
+    w: &mut Writer<Vec<u8>>,
+    info: &ModelInfo,
+    ampere_kelvin: bool,
+) -> std::io::Result<()> {
     if info.units.is_empty() {
         return Ok(());
     }
@@ -120,8 +129,13 @@ pub fn write_unit_definitions(w: &mut Writer<Vec<u8>>, info: &ModelInfo) -> std:
         let mut e = BytesStart::new("Unit");
         e.push_attribute(("name", u.name));
         w.write_event(Event::Start(e))?;
-        let mut bu = BytesStart::new("BaseUnit");
         let bx = &u.base;
+        if !ampere_kelvin && (bx.a != 0 || bx.k != 0) {
+            write_display_units(w, u)?;
+            w.write_event(Event::End(BytesEnd::new("Unit")))?;
+            continue;
+        }
+        let mut bu = BytesStart::new("BaseUnit");
         for (k, x) in [
             ("kg", bx.kg),
             ("m", bx.m),
@@ -143,20 +157,25 @@ pub fn write_unit_definitions(w: &mut Writer<Vec<u8>>, info: &ModelInfo) -> std:
             bu.push_attribute(("offset", fmt_real(bx.offset).as_str()));
         }
         w.write_event(Event::Empty(bu))?;
-        for d in u.display_units {
-            let mut de = BytesStart::new("DisplayUnit");
-            de.push_attribute(("name", d.name));
-            if d.factor != 1.0 {
-                de.push_attribute(("factor", fmt_real(d.factor).as_str()));
-            }
-            if d.offset != 0.0 {
-                de.push_attribute(("offset", fmt_real(d.offset).as_str()));
-            }
-            w.write_event(Event::Empty(de))?;
-        }
+        write_display_units(w, u)?;
         w.write_event(Event::End(BytesEnd::new("Unit")))?;
     }
     w.write_event(Event::End(BytesEnd::new("UnitDefinitions")))
+}
+
+fn write_display_units(w: &mut Writer<Vec<u8>>, u: &UnitDefinition) -> std::io::Result<()> {
+    for d in u.display_units {
+        let mut de = BytesStart::new("DisplayUnit");
+        de.push_attribute(("name", d.name));
+        if d.factor != 1.0 {
+            de.push_attribute(("factor", fmt_real(d.factor).as_str()));
+        }
+        if d.offset != 0.0 {
+            de.push_attribute(("offset", fmt_real(d.offset).as_str()));
+        }
+        w.write_event(Event::Empty(de))?;
+    }
+    Ok(())
 }
 
 /// `<LogCategories>`: the shell's categories, then the model's.

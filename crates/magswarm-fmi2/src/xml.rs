@@ -120,7 +120,7 @@ fn write_xml(
     cs.push_attribute(("providesDirectionalDerivative", b(true)));
     w.write_event(Event::Empty(cs))?;
 
-    common::write_unit_definitions(&mut w, info)?;
+    common::write_unit_definitions(&mut w, info, true)?;
     common::write_log_categories(&mut w, info)?;
     common::write_default_experiment(&mut w, info)?;
 

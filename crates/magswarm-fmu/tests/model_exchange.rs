@@ -2,9 +2,9 @@
 //! importer with its own integrator drives it: the ODE it exposes must reproduce the
 //! Co-Simulation FMU, and every new entry point must refuse what the standard forbids.
 
-use magswarm_fmi2::abi::{FMI2_CO_SIMULATION, FMI2_MODEL_EXCHANGE};
-use magswarm_fmi2::host::Host;
-use magswarm_fmi2::{Fmi2Status, Mode};
+use magswarm_fmi::fmi2::abi::{FMI2_CO_SIMULATION, FMI2_MODEL_EXCHANGE};
+use magswarm_fmi::fmi2::host::Host;
+use magswarm_fmi::fmi2::{Fmi2Status, Mode};
 use magswarm_fmu::{vr, MagSwarm};
 
 use Fmi2Status::{Error, Ok as OK};
@@ -202,7 +202,7 @@ fn a_state_serialized_by_a_co_simulation_instance_is_refused_by_a_model_exchange
 
 #[test]
 fn directional_derivatives_of_the_state_derivatives_match_finite_differences() {
-    use magswarm_fmi2::shell::fmi2_get_directional_derivative;
+    use magswarm_fmi::fmi2::shell::fmi2_get_directional_derivative;
     let h = me();
     to_continuous(&h);
     let x = [0.008, 0.0125];

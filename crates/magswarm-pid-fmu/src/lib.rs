@@ -75,7 +75,7 @@
 //! length), which the generic shell encodes and checks; restoring rebuilds the controller and
 //! restores that state, bit-identically. In-memory states (`fmi2GetFMUstate`) are plain clones.
 
-// The fmi2* forwarders that `export_fmi2!` expands here are unsafe fns: every unsafe call
+// The fmi2*/fmi3* forwarders that `export_fmu!` expands here are unsafe fns: every unsafe call
 // in them has its own block and SAFETY comment.
 #![deny(unsafe_op_in_unsafe_fn)]
 
@@ -83,10 +83,10 @@ use std::path::{Path, PathBuf};
 use std::sync::LazyLock;
 
 use magswarm_control::{inverse_with, Controller, ControllerSnapshot, InverseOptions, PidConfig};
-use magswarm_fmi2::units;
-use magswarm_fmi2::{
+use magswarm_fmi::units;
+use magswarm_fmi::{
     Ctx, DefaultExperiment, FmuModel, InstantiateArgs, LogCategory, ModelError, ModelInfo, Start,
-    UnitDefinition, VarType, Variable, XmlOptions,
+    UnitDefinition, VarType, Variable,
 };
 use magswarm_model::Model;
 use serde::{Deserialize, Serialize};
@@ -713,16 +713,14 @@ impl FmuModel for MagSwarmPid {
     }
 }
 
+// Every fmi2* and fmi3* symbol, and `fmu_model_description`: packaging asks the compiled
+// library for its own XML in either version, with the parameter start values of the
+// controller configuration JSON to bake in.
 #[cfg(feature = "export")]
-magswarm_fmi2::export_fmi2!(MagSwarmPid);
-
-// Packaging asks the compiled library for its own XML (`fmu_model_description`), with the
-// parameter start values of the controller configuration JSON to bake in.
-#[cfg(feature = "export")]
-magswarm_fmi_core::export_describe!(|json: Option<&str>, version: u32| {
+magswarm_fmi::export_fmu!(MagSwarmPid, |json: Option<&str>, version| {
     let cfg = match json {
         None => PidConfig::default(),
         Some(text) => PidConfig::from_json(text).ok()?,
     };
-    (version == 2).then(|| model_description(&cfg, None))
+    Some(model_description_for(&cfg, None, version))
 });

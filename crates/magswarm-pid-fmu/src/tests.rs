@@ -87,10 +87,10 @@ fn state_round_trips_through_bytes_at_a_fixed_size() {
         fmu.y = [0.008 + 1e-5 * k as f64, 0.011];
         fmu.step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
     }
-    let guid = magswarm_fmi2::guid::guid_u128(MagSwarmPid::model_info());
-    let shell = magswarm_fmi_core::snapshot::ShellState::fresh();
-    let bytes = magswarm_fmi_core::snapshot::serialize(guid, &shell, &fmu).unwrap();
-    let (_, mut other) = magswarm_fmi_core::snapshot::deserialize(guid, &bytes, ready()).unwrap();
+    let guid = magswarm_fmi::guid::guid_u128(MagSwarmPid::model_info());
+    let shell = magswarm_fmi::snapshot::ShellState::fresh();
+    let bytes = magswarm_fmi::snapshot::serialize(guid, &shell, &fmu).unwrap();
+    let (_, mut other) = magswarm_fmi::snapshot::deserialize(guid, &bytes, ready()).unwrap();
     assert_eq!(other.k, fmu.k);
     assert_eq!(other.u, fmu.u);
     for k in 40..60 {
@@ -98,14 +98,12 @@ fn state_round_trips_through_bytes_at_a_fixed_size() {
         other.step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
         assert_eq!(other.u, fmu.u, "sample {k}");
     }
-    assert!(
-        magswarm_fmi_core::snapshot::deserialize(guid, &bytes[..bytes.len() - 3], ready()).is_err()
-    );
+    assert!(magswarm_fmi::snapshot::deserialize(guid, &bytes[..bytes.len() - 3], ready()).is_err());
     // The state does not grow with the run (no sample history).
     for k in 60..600 {
         fmu.step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
     }
-    let later = magswarm_fmi_core::snapshot::serialize(guid, &shell, &fmu).unwrap();
+    let later = magswarm_fmi::snapshot::serialize(guid, &shell, &fmu).unwrap();
     assert!(
         later.len() < bytes.len() + 64,
         "{} -> {}",

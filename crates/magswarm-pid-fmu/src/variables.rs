@@ -3,6 +3,7 @@
 //! binary's behaviour and the XML.
 
 use super::*;
+use magswarm_fmi::FmiVersion;
 
 /// Model identifier (file name of the shared library and of the FMU).
 pub const MODEL_IDENTIFIER: &str = "MagSwarmPID";
@@ -241,7 +242,7 @@ pub(crate) fn build_variables() -> Vec<Variable> {
     let m = |v: Variable| v.unit("m").display_unit("mm").nominal(0.01);
     let out = |v: Variable| {
         v.output()
-            .variability(magswarm_fmi2::Variability::Discrete)
+            .variability(magswarm_fmi::Variability::Discrete)
             .depends_on(NONE)
     };
     let mut v = vec![
@@ -353,7 +354,7 @@ pub(crate) static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
     }),
     units: UNITS,
     log_categories: LOG_CATEGORIES,
-    variables: magswarm_fmi2::unload::leak(build_variables()),
+    variables: magswarm_fmi::unload::leak(build_variables()),
 });
 
 /// The static model information (variable table, units).
@@ -364,6 +365,15 @@ pub fn model_info() -> &'static ModelInfo {
 /// The modelDescription.xml of an FMU whose default configuration is `baked` (the parameter
 /// start values are its values).
 pub fn model_description(baked: &PidConfig, generated_at: Option<String>) -> String {
+    model_description_for(baked, generated_at, FmiVersion::V2)
+}
+
+/// [`model_description`] in FMI `version`.
+pub fn model_description_for(
+    baked: &PidConfig,
+    generated_at: Option<String>,
+    version: FmiVersion,
+) -> String {
     let mut overrides: Vec<(u32, Start)> = PARAMS
         .iter()
         .enumerate()
@@ -374,8 +384,9 @@ pub fn model_description(baked: &PidConfig, generated_at: Option<String>) -> Str
         vr::CONDITIONAL_INTEGRATION,
         Start::Boolean(baked.gains.conditional_integration),
     ));
-    magswarm_fmi2::model_description_xml::<MagSwarmPid>(&XmlOptions {
+    let options = magswarm_fmi::xml::XmlOptions {
         generation_date_and_time: generated_at,
         start_overrides: overrides,
-    })
+    };
+    magswarm_fmi::model_description_xml::<MagSwarmPid>(version, &options)
 }

@@ -146,8 +146,7 @@ impl<M: FmuModel> Instance<M> {
     pub fn adjoint_derivative(
         &mut self,
         f: &'static str,
-        unknowns: &[u32],
-        knowns: &[u32],
+        (unknowns, knowns): (&[u32], &[u32]),
         seed: &[f64],
         sensitivity: &mut [f64],
     ) -> Status {
