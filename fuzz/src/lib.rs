@@ -12,7 +12,10 @@
 //! One bit of the first byte instantiates Model Exchange instead of Co-Simulation, and the
 //! op codes 18-23 are the Model Exchange calls, so both interfaces share one driver.
 
+pub mod fmi3;
 pub mod planted;
+
+pub use fmi3::drive3;
 
 use magswarm_fmi::fmi2::abi::Fmi2FmuState;
 use magswarm_fmi::fmi2::host::Host;
@@ -101,7 +104,7 @@ fn assert_no_panic<M: FmuModel>(h: &Host<M>, what: &str) {
 }
 
 /// A value reference: mostly one of the model's variables of type `ty`, sometimes any.
-fn vr_of<M: FmuModel>(b: &mut Bytes<'_>, ty: VarType) -> u32 {
+pub fn vr_of<M: FmuModel>(b: &mut Bytes<'_>, ty: VarType) -> u32 {
     let vars: Vec<u32> = M::model_info()
         .variables
         .iter()

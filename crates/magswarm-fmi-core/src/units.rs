@@ -113,6 +113,12 @@ pub const METRE_PER_SECOND: UnitDefinition = UnitDefinition {
     base: base(0, 1, -1, 0, 0, 0, 0, 0),
     display_units: &[display("mm/s", 1000.0)],
 };
+/// `m/s2` (an acceleration, e.g. of a formation mode).
+pub const METRE_PER_SECOND2: UnitDefinition = UnitDefinition {
+    name: "m/s2",
+    base: base(0, 1, -2, 0, 0, 0, 0, 0),
+    display_units: &[display("mm/s2", 1000.0)],
+};
 /// `Hz/s` (rate of a frequency).
 pub const HERTZ_PER_SECOND: UnitDefinition = UnitDefinition {
     name: "Hz/s",

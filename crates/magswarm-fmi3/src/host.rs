@@ -129,6 +129,12 @@ impl<M: FmuModel> Host<M> {
         unsafe { (*(self.c as *const Instance<M>)).mode() }
     }
 
+    /// The instance's time (communication point, or the last `fmi3SetTime`).
+    pub fn time(&self) -> f64 {
+        // SAFETY: `c` is a live instance of `M` created by this host.
+        unsafe { (*(self.c as *const Instance<M>)).time() }
+    }
+
     /// Enter (with start time `start`, no tolerance or stop time) and exit initialisation;
     /// the worst status.
     pub fn init(&self, start: f64) -> Status {

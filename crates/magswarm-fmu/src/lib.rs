@@ -30,298 +30,6 @@ use magswarm_fmi::{
 use magswarm_model::{Confinement, Model, Plant, PlantSnapshot};
 use serde::{Deserialize, Serialize};
 
-/// Model identifier (file name of the shared library and of the FMU).
-pub const MODEL_IDENTIFIER: &str = "MagSwarm";
-/// Name of the model JSON inside the FMU's `resources/`.
-pub const RESOURCE_MODEL: &str = "model.json";
-
-/// Value references of the interface variables.
-pub mod vr {
-    /// Input: magnet-swarm distance \[m\].
-    pub const Z_M: u32 = 1;
-    /// Input: field angular velocity [rad/s].
-    pub const OMEGA_M: u32 = 2;
-    /// Output: radius r1 from ODE (4) \[m\].
-    pub const R1: u32 = 10;
-    /// Output: radius r2 from ODE (4) \[m\].
-    pub const R2: u32 = 11;
-    /// Output: steady map r1 \[m\].
-    pub const R1_SS: u32 = 12;
-    /// Output: steady map r2 \[m\].
-    pub const R2_SS: u32 = 13;
-    /// Output: stiffness S_x.
-    pub const S_X: u32 = 14;
-    /// Output: stiffness S_y.
-    pub const S_Y: u32 = 15;
-    /// Output: field magnitude \[T\].
-    pub const B: u32 = 16;
-    /// Output: axial gradient [T/m].
-    pub const G_Z: u32 = 17;
-    /// Output: curvature k_xx [T2/m2].
-    pub const K_XX: u32 = 18;
-    /// Output: curvature k_yy [T2/m2].
-    pub const K_YY: u32 = 19;
-    /// Output (Boolean): inputs inside the validated envelope.
-    pub const IN_ENVELOPE: u32 = 20;
-    /// Local: dr1/dt [m/s].
-    pub const DER_R1: u32 = 30;
-    /// Local: dr2/dt [m/s].
-    pub const DER_R2: u32 = 31;
-    /// Parameter (Boolean): start on the steady map of the initial inputs.
-    pub const SETTLE_AT_START: u32 = 40;
-    /// Parameter: initial r1 \[m\] when not settled.
-    pub const R1_START: u32 = 41;
-    /// Parameter: initial r2 \[m\] when not settled.
-    pub const R2_START: u32 = 42;
-    /// Parameter (Boolean): confinement gains scheduled so that (4)'s equilibrium is the map.
-    pub const SCHEDULED: u32 = 43;
-    /// Parameter (String): path of a model JSON replacing the defaults.
-    pub const MODEL_FILE: u32 = 50;
-    /// First value reference of the numeric model parameters (see [`super::PARAMS`]).
-    pub const PARAM_BASE: u32 = 100;
-}
-
-/// Default inputs: the seed's mid-envelope operating point (z_m 8.5 mm, f 4 Hz).
-pub const Z_START: f64 = 0.0085;
-/// Largest `z_m` accepted \[m\]: far beyond the envelope (23.5 mm) the field is numerically
-/// zero and the model's outputs stop being numbers.
-pub const MAX_Z_M: f64 = 1.0;
-/// Largest `|omega_m|` accepted [rad/s] (about 1.6 kHz; the envelope ends at 10 Hz).
-pub const MAX_OMEGA: f64 = 1e4;
-/// Default field angular velocity [rad/s] (4 Hz).
-pub const OMEGA_START: f64 = 4.0 * std::f64::consts::TAU;
-
-/// A numeric model parameter exposed as an FMI parameter: a row of the model's parameter
-/// registry ([`magswarm_model::registry`]), which is the one list of parameters.
-pub use magswarm_model::registry::Param as ParamSpec;
-
-/// Numeric parameters in value-reference order (vr = PARAM_BASE + index): the registry's rows
-/// marked for the FMU. A parameter added to the registry appears here by itself.
-/// (Freed when the library is unloaded, like the variable table.)
-pub static PARAMS: LazyLock<&'static [&'static ParamSpec]> =
-    LazyLock::new(|| magswarm_fmi::unload::leak(magswarm_model::registry::fmu_params().collect()));
-
-/// Unit definitions used by the table.
-static UNITS: &[UnitDefinition] = &[
-    units::METRE,
-    units::RAD_PER_SECOND,
-    units::TESLA,
-    units::TESLA_PER_METRE,
-    units::TESLA2_PER_METRE2,
-    units::ONE,
-    units::MILLIMETRE,
-    units::HERTZ,
-    units::PER_SECOND,
-    units::METRE_PER_SECOND,
-    units::SECOND,
-];
-
-static LOG_CATEGORIES: &[LogCategory] = &[
-    LogCategory {
-        name: "logEnvelope",
-        description: "inputs leaving or re-entering the validated envelope",
-    },
-    LogCategory {
-        name: "logModel",
-        description: "model loading (resources/model.json, model_file)",
-    },
-];
-
-const INPUTS: &[u32] = &[vr::Z_M, vr::OMEGA_M];
-const Z_ONLY: &[u32] = &[vr::Z_M];
-// r1, r2 are the continuous states of (4): no direct feedthrough from the inputs, which is
-// what lets a controller close the loop without an algebraic loop.
-const R1_DEP: &[u32] = &[vr::R1];
-const R2_DEP: &[u32] = &[vr::R2];
-const DER_DEP: &[u32] = &[vr::Z_M, vr::OMEGA_M, vr::R1, vr::R2];
-
-fn build_variables() -> Vec<Variable> {
-    let paper = Model::paper();
-    let mut v = vec![
-        Variable::real("z_m", vr::Z_M)
-            .input()
-            .start_real(Z_START)
-            .unit("m")
-            .display_unit("mm")
-            .nominal(0.01)
-            .description("magnet-swarm distance (validated 3.5-23.5 mm)"),
-        Variable::real("omega_m", vr::OMEGA_M)
-            .input()
-            .start_real(OMEGA_START)
-            .unit("rad/s")
-            .display_unit("Hz")
-            .nominal(30.0)
-            .description("field angular velocity 2 pi f_m (validated 1-10 Hz)"),
-        Variable::real("r1", vr::R1)
-            .output()
-            .unit("m")
-            .display_unit("mm")
-            .nominal(0.01)
-            .depends_on(R1_DEP)
-            .description("principal radius r1 from ODE (4)"),
-        Variable::real("r2", vr::R2)
-            .output()
-            .unit("m")
-            .display_unit("mm")
-            .nominal(0.01)
-            .depends_on(R2_DEP)
-            .description("principal radius r2 from ODE (4)"),
-        Variable::real("r1_ss", vr::R1_SS)
-            .output()
-            .unit("m")
-            .display_unit("mm")
-            .nominal(0.01)
-            .depends_on(INPUTS)
-            .description("steady-state map (5) r1 at the current inputs"),
-        Variable::real("r2_ss", vr::R2_SS)
-            .output()
-            .unit("m")
-            .display_unit("mm")
-            .nominal(0.01)
-            .depends_on(INPUTS)
-            .description("steady-state map (5) r2 at the current inputs"),
-        Variable::real("S_x", vr::S_X)
-            .output()
-            .unit("1")
-            .depends_on(INPUTS)
-            .description("anisotropic stiffness S_x (7), floored positive"),
-        Variable::real("S_y", vr::S_Y)
-            .output()
-            .unit("1")
-            .depends_on(INPUTS)
-            .description("anisotropic stiffness S_y (7), floored positive"),
-        Variable::real("B", vr::B)
-            .output()
-            .unit("T")
-            .display_unit("mT")
-            .depends_on(Z_ONLY)
-            .description("field magnitude at the swarm (RMS over one turn)"),
-        Variable::real("g_z", vr::G_Z)
-            .output()
-            .unit("T/m")
-            .depends_on(Z_ONLY)
-            .description("axial gradient |d|B|/dz| at the swarm"),
-        Variable::real("k_xx", vr::K_XX)
-            .output()
-            .unit("T2/m2")
-            .depends_on(Z_ONLY)
-            .description("curvature d2<B^2>/dx2 at the swarm (tangential)"),
-        Variable::real("k_yy", vr::K_YY)
-            .output()
-            .unit("T2/m2")
-            .depends_on(Z_ONLY)
-            .description("curvature d2<B^2>/dy2 at the swarm (radial)"),
-        Variable::boolean("in_envelope", vr::IN_ENVELOPE)
-            .output()
-            .depends_on(INPUTS)
-            .description("true while the inputs are inside the validated envelope"),
-        Variable::real("der_r1", vr::DER_R1)
-            .local()
-            .unit("m/s")
-            .derivative_of(vr::R1)
-            .depends_on(DER_DEP)
-            .description("dr1/dt of ODE (4)"),
-        Variable::real("der_r2", vr::DER_R2)
-            .local()
-            .unit("m/s")
-            .derivative_of(vr::R2)
-            .depends_on(DER_DEP)
-            .description("dr2/dt of ODE (4)"),
-        Variable::boolean("settle_at_start", vr::SETTLE_AT_START)
-            .parameter()
-            .start_boolean(true)
-            .description("start formed: r1, r2 on the steady map of the initial inputs"),
-        Variable::real("r1_start", vr::R1_START)
-            .parameter()
-            .start_real(0.005)
-            .unit("m")
-            .display_unit("mm")
-            .description("initial r1 when settle_at_start is false"),
-        Variable::real("r2_start", vr::R2_START)
-            .parameter()
-            .start_real(0.005)
-            .unit("m")
-            .display_unit("mm")
-            .description("initial r2 when settle_at_start is false"),
-        Variable::boolean("scheduled_confinement", vr::SCHEDULED)
-            .parameter()
-            .start_boolean(paper.dynamics.confinement == Confinement::Scheduled)
-            .description("schedule K_b1, K_b2 on the inputs so the equilibrium of (4) is the map"),
-        Variable::string("model_file", vr::MODEL_FILE)
-            .parameter()
-            .start_string("")
-            .description("path of a model JSON (magswarm-model/2, or /1) replacing the defaults; empty: resources/model.json"),
-    ];
-    for (i, p) in PARAMS.iter().enumerate() {
-        let mut var = Variable::real(p.name, vr::PARAM_BASE + i as u32)
-            .parameter()
-            .start_real((p.get)(&paper))
-            .description(p.description);
-        if let Some(u) = p.unit {
-            var = var.unit(u);
-        }
-        v.push(var);
-    }
-    v
-}
-
-static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
-    model_identifier: MODEL_IDENTIFIER,
-    model_name: "MagSwarm",
-    description: "Reduced-order model of a magnetic microparticle swarm under a rotating \
-                  spherical magnet: ellipse radii r1, r2 from magnet distance z_m and field \
-                  angular velocity omega_m (steady map (5)-(7) and ODE (4) of the seed paper)",
-    version: env!("CARGO_PKG_VERSION"),
-    author: "magswarm",
-    copyright: None,
-    license: Some("MIT OR Apache-2.0"),
-    generation_tool: concat!("magswarm ", env!("CARGO_PKG_VERSION")),
-    naming_convention: Default::default(),
-    default_experiment: Some(DefaultExperiment {
-        start_time: Some(0.0),
-        stop_time: Some(60.0),
-        tolerance: Some(1e-8),
-        step_size: Some(0.01),
-    }),
-    units: UNITS,
-    log_categories: LOG_CATEGORIES,
-    variables: magswarm_fmi::unload::leak(build_variables()),
-});
-
-/// The FMI 2.0 modelDescription.xml for an FMU whose default model is `baked`: the
-/// parameter start values are the baked model's, everything else comes from the static
-/// table.
-pub fn model_description(baked: &Model, generated_at: Option<String>) -> String {
-    model_description_for(baked, generated_at, FmiVersion::V2)
-}
-
-/// [`model_description`] in FMI `version`.
-pub fn model_description_for(
-    baked: &Model,
-    generated_at: Option<String>,
-    version: FmiVersion,
-) -> String {
-    let mut overrides: Vec<(u32, Start)> = PARAMS
-        .iter()
-        .enumerate()
-        .map(|(i, p)| (vr::PARAM_BASE + i as u32, Start::Real((p.get)(baked))))
-        .collect();
-    overrides.push((
-        vr::SCHEDULED,
-        Start::Boolean(baked.dynamics.confinement == Confinement::Scheduled),
-    ));
-    let options = XmlOptions {
-        generation_date_and_time: generated_at,
-        start_overrides: overrides,
-    };
-    magswarm_fmi::model_description_xml::<MagSwarm>(version, &options)
-}
-
-/// The static model information (variable table, units), for docs and packaging.
-pub fn model_info() -> &'static ModelInfo {
-    &INFO
-}
-
 /// One FMU instance.
 #[derive(Debug, Clone)]
 pub struct MagSwarm {
@@ -554,58 +262,6 @@ impl MagSwarm {
         }
         Ok(())
     }
-
-    /// Jacobian row of an unknown with respect to the knowns z_m, omega_m, r1, r2 (SI), where
-    /// the knowns r1, r2 are the continuous state: the radii of ODE (4), which `der_r1`,
-    /// `der_r2` differentiate. The outputs `r1`, `r2` are what `fmi2GetReal` returns, the
-    /// *observed* radii ([`Plant::outputs`]): with `formation_lag` the state enters them with
-    /// the weight `1 - share` (the slow mode, a state of its own, does not move with it), and
-    /// `particle_drift` and `camera_bias` scale them by the observation gain (offsets have no
-    /// derivative). Without effects both factors are 1 and the outputs are the state.
-    fn jac_row(&mut self, unknown: u32) -> Result<[f64; 4], ModelError> {
-        let plant = self.plant();
-        let sp = plant.outputs().steady;
-        let f = sp.field;
-        let effects = &plant.model().effects;
-        let (gain, _) = effects.observation(plant.time());
-        let own = 1.0 - effects.formation_lag.map_or(0.0, |fl| fl.share);
-        Ok(match unknown {
-            vr::R1 => [0.0, 0.0, gain[0] * own, 0.0],
-            vr::R2 => [0.0, 0.0, 0.0, gain[1] * own],
-            vr::R1_SS => [sp.jac[0][0] * 1e-3, sp.jac[0][1] * 1e-3, 0.0, 0.0],
-            vr::R2_SS => [sp.jac[1][0] * 1e-3, sp.jac[1][1] * 1e-3, 0.0, 0.0],
-            vr::S_X => [sp.ds[0][0], sp.ds[0][1], 0.0, 0.0],
-            vr::S_Y => [sp.ds[1][0], sp.ds[1][1], 0.0, 0.0],
-            vr::B => [f.db_dz, 0.0, 0.0, 0.0],
-            vr::G_Z => [f.dg_z_dz, 0.0, 0.0, 0.0],
-            vr::K_XX => [f.dk_xx_dz, 0.0, 0.0, 0.0],
-            vr::K_YY => [f.dk_yy_dz, 0.0, 0.0, 0.0],
-            vr::DER_R1 | vr::DER_R2 => {
-                let i = (unknown - vr::DER_R1) as usize;
-                let js = plant.jac_state();
-                let ju = plant.jac_input();
-                // f in mm/s, r in mm: d(f/1000)/d(r/1000) = df/dr; inputs are SI already.
-                [ju[i][0] * 1e-3, ju[i][1] * 1e-3, js[i][0], js[i][1]]
-            }
-            other => {
-                return Err(ModelError::error(format!(
-                    "directional derivative: value reference {other} is not an output or a state derivative"
-                )))
-            }
-        })
-    }
-}
-
-fn known_index(vr: u32) -> Result<usize, ModelError> {
-    match vr {
-        vr::Z_M => Ok(0),
-        vr::OMEGA_M => Ok(1),
-        vr::R1 => Ok(2),
-        vr::R2 => Ok(3),
-        other => Err(ModelError::error(format!(
-            "directional derivative: value reference {other} is not an input (z_m, omega_m) or a state (r1, r2)"
-        ))),
-    }
 }
 
 impl FmuModel for MagSwarm {
@@ -671,31 +327,33 @@ impl FmuModel for MagSwarm {
     }
 
     fn set_continuous_states(&mut self, _ctx: &mut Ctx<'_>, x: &[f64]) -> Result<(), ModelError> {
-        if self.model.effects.formation_lag.is_some() {
-            return Err(ModelError::error(
-                "the formation_lag effect's slow formation mode is integrated inside the FMU \
-                 and is not exposed as a continuous state: simulate this model as \
-                 Co-Simulation",
-            ));
-        }
-        if x.iter().any(|&r| r <= 0.0) {
+        if x[..2].iter().any(|&r| r <= 0.0) {
             return Err(ModelError::error(format!(
-                "continuous states r1, r2 must be positive radii, got {x:?} m"
+                "continuous states r1_ode, r2_ode must be positive radii, got {:?} m",
+                &x[..2]
             )));
         }
-        self.plant().set_radii([x[0] * 1e3, x[1] * 1e3]);
+        let mut mm = [0.0; 6];
+        for (m, &si) in mm.iter_mut().zip(x) {
+            *m = si * 1e3;
+        }
+        self.plant().set_continuous_state(mm);
         Ok(())
     }
 
     fn get_continuous_states(&mut self, _states: &[u32], x: &mut [f64]) -> Result<(), ModelError> {
-        let r = self.plant().state();
-        x.copy_from_slice(&[r[0] * 1e-3, r[1] * 1e-3]);
+        let s = self.plant().continuous_state();
+        for (o, m) in x.iter_mut().zip(s) {
+            *o = m * 1e-3;
+        }
         Ok(())
     }
 
     fn get_derivatives(&mut self, _derivatives: &[u32], dx: &mut [f64]) -> Result<(), ModelError> {
-        let f = self.plant().derivatives();
-        dx.copy_from_slice(&[f[0] * 1e-3, f[1] * 1e-3]);
+        let f = self.plant().continuous_derivatives();
+        for (o, m) in dx.iter_mut().zip(f) {
+            *o = m * 1e-3;
+        }
         Ok(())
     }
 
@@ -731,10 +389,10 @@ impl FmuModel for MagSwarm {
             vr::G_Z => sp.field.g_z,
             vr::K_XX => sp.field.k_xx,
             vr::K_YY => sp.field.k_yy,
-            vr::DER_R1 | vr::DER_R2 => {
-                let r = plant.state();
-                let f = plant.terms().rhs(plant.model(), r);
-                f[(vr - vr::DER_R1) as usize] * 1e-3
+            vr::DER_R1 | vr::DER_R2 => plant.derivatives()[(vr - vr::DER_R1) as usize] * 1e-3,
+            vr::R1_ODE..=vr::FORM_V2 => plant.continuous_state()[(vr - vr::R1_ODE) as usize] * 1e-3,
+            vr::DER_FORM_X1..=vr::DER_FORM_V2 => {
+                plant.continuous_derivatives()[(vr - vr::DER_FORM_X1 + 2) as usize] * 1e-3
             }
             vr::R1_START => r_start[0],
             vr::R2_START => r_start[1],
@@ -886,7 +544,7 @@ impl FmuModel for MagSwarm {
     fn jacobian(&mut self, unknowns: &[u32], knowns: &[u32]) -> Result<Vec<f64>, ModelError> {
         let idx: Vec<usize> = knowns
             .iter()
-            .map(|&k| known_index(k))
+            .map(|&k| jacobian::known_index(k))
             .collect::<Result<_, _>>()?;
         let mut out = Vec::with_capacity(unknowns.len() * knowns.len());
         for &u in unknowns {
@@ -909,5 +567,9 @@ magswarm_fmi::export_fmu!(MagSwarm, |json: Option<&str>, version| {
     Some(model_description_for(&model, None, version))
 });
 
+mod jacobian;
 #[cfg(test)]
 mod tests;
+mod variables;
+
+pub use variables::*;

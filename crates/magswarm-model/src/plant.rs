@@ -194,6 +194,87 @@ impl Plant {
         self.terms.rhs(&self.model, self.r)
     }
 
+    /// The slow formation mode of the `formation_lag` effect, per axis (x, dx/dt):
+    /// `[x1, v1, x2, v2]` \[mm, mm/s\]. Without the effect it stays where it was set (on the
+    /// map at the start) and nothing reads it.
+    pub fn formation(&self) -> [f64; 4] {
+        self.form
+    }
+
+    /// Set the slow formation mode `[x1, v1, x2, v2]` \[mm, mm/s\] and nothing else: what an
+    /// importer's integrator does with those states in FMI Model Exchange.
+    pub fn set_formation(&mut self, form: [f64; 4]) {
+        self.form = form;
+    }
+
+    /// Every continuous state of the plant, as FMI Model Exchange exposes them:
+    /// `[r1, r2, x1, v1, x2, v2]` \[mm, mm/s\] (ODE (4), then the formation mode).
+    pub fn continuous_state(&self) -> [f64; 6] {
+        let f = self.form;
+        [self.r[0], self.r[1], f[0], f[1], f[2], f[3]]
+    }
+
+    /// Set every continuous state, in the order of [`Plant::continuous_state`].
+    pub fn set_continuous_state(&mut self, x: [f64; 6]) {
+        self.r = [x[0], x[1]];
+        self.form = [x[2], x[3], x[4], x[5]];
+    }
+
+    /// The time derivative of [`Plant::continuous_state`] \[mm/s, mm/s^2\]: ODE (4) for the
+    /// radii and, with `formation_lag`, the slow mode
+    /// `x'' + 2 zeta x'/tau + (x - r_ss)/tau^2 = 0` toward the (unobserved) steady map; zero
+    /// without the effect, as [`Plant::step`] leaves the mode alone then.
+    pub fn continuous_derivatives(&self) -> [f64; 6] {
+        let dr = self.derivatives();
+        let [x1, v1, x2, v2] = self.form;
+        match &self.model.effects.formation_lag {
+            None => [dr[0], dr[1], 0.0, 0.0, 0.0, 0.0],
+            Some(fl) => {
+                let target = self.terms.steady.radii();
+                let wn = 1.0 / fl.tau_s;
+                let acc = |x: f64, v: f64, r: f64| -wn * wn * (x - r) - 2.0 * fl.zeta * wn * v;
+                [
+                    dr[0],
+                    dr[1],
+                    v1,
+                    acc(x1, v1, target[0]),
+                    v2,
+                    acc(x2, v2, target[1]),
+                ]
+            }
+        }
+    }
+
+    /// d(continuous_derivatives)/d(z_m [m], omega [rad/s], continuous_state) at the current
+    /// point, row per derivative: 8 columns (2 inputs, 6 states) in the units of
+    /// [`Plant::continuous_derivatives`] per unit of the known.
+    pub fn continuous_jacobian(&self) -> [[f64; 8]; 6] {
+        let mut j = [[0.0; 8]; 6];
+        let js = self.jac_state();
+        let ju = self.jac_input();
+        for i in 0..2 {
+            j[i][0] = ju[i][0];
+            j[i][1] = ju[i][1];
+            j[i][2] = js[i][0];
+            j[i][3] = js[i][1];
+        }
+        if let Some(fl) = &self.model.effects.formation_lag {
+            let wn = 1.0 / fl.tau_s;
+            let jac = self.terms.steady.jac;
+            for axis in 0..2 {
+                let (x, v) = (2 + 2 * axis, 3 + 2 * axis);
+                // dx/dt = v
+                j[x][2 + v] = 1.0;
+                // dv/dt = -wn^2 (x - r_ss(u)) - 2 zeta wn v
+                j[v][2 + x] = -wn * wn;
+                j[v][2 + v] = -2.0 * fl.zeta * wn;
+                j[v][0] = wn * wn * jac[axis][0];
+                j[v][1] = wn * wn * jac[axis][1];
+            }
+        }
+        j
+    }
+
     /// Radii state \[mm\].
     pub fn state(&self) -> [f64; 2] {
         self.r

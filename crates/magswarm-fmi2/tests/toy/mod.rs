@@ -4,8 +4,8 @@
 
 #![allow(dead_code)]
 
-use magswarm_fmi2::units;
-use magswarm_fmi2::{
+use magswarm_fmi_core::units;
+use magswarm_fmi_core::{
     Ctx, DefaultExperiment, FmuModel, InstantiateArgs, LogCategory, ModelError, ModelInfo,
     NamingConvention, VarType, Variable,
 };
