@@ -19,6 +19,9 @@ pub struct Table {
     pub info: &'static ModelInfo,
     /// (vr, position) sorted by vr.
     by_vr: Vec<(u32, usize)>,
+    /// Position by value reference for tables whose references are small (every call of
+    /// every getter and setter looks references up: a direct index instead of a search).
+    dense: Vec<u32>,
     /// The independent variable (time), answered by the instance itself.
     independent: Option<u32>,
 }
@@ -39,9 +42,22 @@ impl Table {
             .iter()
             .find(|v| v.causality == Causality::Independent)
             .map(|v| v.vr);
+        // A direct index when the references fit in a small array (all of magswarm's do).
+        const DENSE_LIMIT: u32 = 1 << 14;
+        let max_vr = by_vr.last().map_or(0, |&(v, _)| v);
+        let dense = if max_vr < DENSE_LIMIT {
+            let mut d = vec![u32::MAX; max_vr as usize + 1];
+            for &(v, p) in &by_vr {
+                d[v as usize] = p as u32;
+            }
+            d
+        } else {
+            Vec::new()
+        };
         Ok(Table {
             info,
             by_vr,
+            dense,
             independent,
         })
     }
@@ -52,7 +68,14 @@ impl Table {
     }
 
     /// Position (0-based) of the variable with value reference `vr`.
+    #[inline]
     pub fn position(&self, vr: u32) -> Option<usize> {
+        if !self.dense.is_empty() {
+            return match self.dense.get(vr as usize) {
+                Some(&p) if p != u32::MAX => Some(p as usize),
+                _ => None,
+            };
+        }
         self.by_vr
             .binary_search_by_key(&vr, |&(v, _)| v)
             .ok()
@@ -60,6 +83,7 @@ impl Table {
     }
 
     /// The variable with value reference `vr`.
+    #[inline]
     pub fn get(&self, vr: u32) -> Option<&'static Variable> {
         let info: &'static ModelInfo = self.info;
         self.position(vr).map(|i| &info.variables[i])
@@ -67,6 +91,7 @@ impl Table {
 
     /// The variable with value reference `vr` if it has type `ty`, else a message
     /// for the log.
+    #[inline]
     pub fn typed(&self, vr: u32, ty: VarType) -> Result<&'static Variable, String> {
         match self.get(vr) {
             Some(v) if v.ty == ty => Ok(v),

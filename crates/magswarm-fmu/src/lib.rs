@@ -30,6 +30,9 @@ use magswarm_fmi::{
 use magswarm_model::{Confinement, Model, Plant, PlantSnapshot};
 use serde::{Deserialize, Serialize};
 
+/// `checked` before anything was checked (bits no input has: a NaN's).
+const UNCHECKED: [u64; 2] = [u64::MAX; 2];
+
 /// One FMU instance.
 #[derive(Debug, Clone)]
 pub struct MagSwarm {
@@ -50,6 +53,9 @@ pub struct MagSwarm {
     plant: Option<Plant>,
     /// Inputs currently outside the envelope (one warning per excursion).
     outside: bool,
+    /// The inputs (bits) whose envelope and input-dependent outputs were last checked: a step
+    /// at the same inputs only has to check the radii it moved (a cache, not state).
+    checked: [u64; 2],
 }
 
 /// The serialized FMU state of [`MagSwarm`]: everything that changes while it runs (the
@@ -126,6 +132,7 @@ impl MagSwarm {
             rtol: None,
             plant: None,
             outside: false,
+            checked: UNCHECKED,
         })
     }
 
@@ -153,6 +160,7 @@ impl MagSwarm {
 
     fn invalidate(&mut self) {
         self.plant = None;
+        self.checked = UNCHECKED;
     }
 
     fn load_model_file(&mut self, path: &str) -> Result<(), ModelError> {
@@ -189,9 +197,26 @@ impl MagSwarm {
         }
     }
 
+    /// After a step: every output finite, checking the input-dependent ones (and the
+    /// envelope) only when the inputs changed since the last check.
+    fn check_after_step(&mut self) -> Result<(), ModelError> {
+        let now = [self.z_m.to_bits(), self.omega.to_bits()];
+        if now != self.checked {
+            self.check_outputs()?;
+            self.checked = now;
+            return Ok(());
+        }
+        let r = self.plant().observed_radii();
+        if r.iter().all(|x| x.is_finite()) {
+            Ok(())
+        } else {
+            self.check_outputs()
+        }
+    }
+
     /// Every output finite, or an error naming the inputs: an importer must never read NaN
     /// or inf after a call that returned OK or Warning.
-    fn check_outputs(&mut self, when: &str) -> Result<(), ModelError> {
+    fn check_outputs(&mut self) -> Result<(), ModelError> {
         let (z, w) = (self.z_m, self.omega);
         let o = self.plant().outputs();
         let sp = o.steady;
@@ -210,7 +235,7 @@ impl MagSwarm {
         match all.iter().find(|(_, x)| !x.is_finite()) {
             None => Ok(()),
             Some((name, x)) => Err(ModelError::error(format!(
-                "{when}: the model cannot be evaluated at z_m = {:e} mm, omega_m = {w:e} rad/s \
+                "the model cannot be evaluated at z_m = {:e} mm, omega_m = {w:e} rad/s \
                  ({name} = {x}); set inputs the model can evaluate (validated envelope z_m {}-{} \
                  mm, f {}-{} Hz)",
                 z * 1e3,
@@ -298,24 +323,26 @@ impl FmuModel for MagSwarm {
         self.invalidate();
         self.plant();
         self.check_envelope(ctx);
-        self.check_outputs("fmi2ExitInitializationMode")
+        self.check_outputs()
     }
 
     fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
-        self.check_envelope(ctx);
+        if [self.z_m.to_bits(), self.omega.to_bits()] != self.checked {
+            self.check_envelope(ctx);
+        }
         let (z, w) = (self.z_m, self.omega);
         let plant = self.plant();
         // The plant's clock is the FMU's (time-dependent effects such as particle drift).
         plant.set_time(current_time);
         plant.step(step).map_err(|e| {
             ModelError::error(format!(
-                "doStep: ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
+                "ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
                 z * 1e3,
                 w.abs() / std::f64::consts::TAU,
                 plant.validity().describe()
             ))
         })?;
-        self.check_outputs("fmi2DoStep")
+        self.check_after_step()
     }
 
     // Model Exchange: the states are r1, r2 of ODE (4) (the table's der_r1, der_r2 rows).
@@ -370,6 +397,10 @@ impl FmuModel for MagSwarm {
                 .map(|p| (p.get)(&self.model))
                 .ok_or_else(|| ModelError::unknown_vr(magswarm_fmi::VarType::Real, vr));
         }
+        if vr == vr::R1 || vr == vr::R2 {
+            // The hot path of a co-simulation master: the radii alone.
+            return Ok(self.plant().observed_radii()[(vr - vr::R1) as usize] * 1e-3);
+        }
         let z = self.z_m;
         let w = self.omega;
         let r_start = self.r_start;
@@ -379,8 +410,6 @@ impl FmuModel for MagSwarm {
         Ok(match vr {
             vr::Z_M => z,
             vr::OMEGA_M => w,
-            vr::R1 => o.r1 * 1e-3,
-            vr::R2 => o.r2 * 1e-3,
             vr::R1_SS => sp.r1 * 1e-3,
             vr::R2_SS => sp.r2 * 1e-3,
             vr::S_X => sp.s_x,
@@ -536,6 +565,7 @@ impl FmuModel for MagSwarm {
         candidate.r_start = s.r_start;
         candidate.rtol = s.rtol;
         candidate.outside = s.outside;
+        candidate.checked = UNCHECKED;
         candidate.validate_restored()?;
         *self = candidate;
         Ok(())

@@ -124,8 +124,9 @@ impl InputTerms {
         [self.steady.s_x, self.steady.s_y]
     }
 
-    /// Right-hand side of (4) [mm/s] at state r \[mm\].
-    #[inline]
+    /// Right-hand side of (4) [mm/s] at state r \[mm\] (inlined into the integrator's six
+    /// stages).
+    #[inline(always)]
     pub fn rhs(&self, model: &Model, r: [f64; 2]) -> [f64; 2] {
         let d = &model.dynamics;
         let s = self.s();
@@ -191,7 +192,7 @@ impl InputTerms {
 }
 
 /// `x^e` by multiplication when `e` is 1, 2, 3 or 4 (the paper's beta is 3), by `sqrt` for
-/// 0.5 (the paper's p), else `powf`.
+/// 0.5 (the paper's p), else [`crate::fastpow::pow`] (within its proven bound of `powf`).
 ///
 /// The right-hand side of (4) is evaluated six times per integrator step; `powf` is a libm
 /// call of about 20 ns, three multiplications are under 2 ns. The products differ from
@@ -210,12 +211,19 @@ pub fn pow_int_or_real(x: f64, e: f64) -> f64 {
     } else if e == 0.5 && x >= 0.0 {
         x.sqrt()
     } else {
-        x.powf(e)
+        pow_general(x, e)
     }
 }
 
+/// The general case of [`pow_int_or_real`], out of line so that the integer cases stay small
+/// enough to inline into the right-hand side.
+#[inline(never)]
+fn pow_general(x: f64, e: f64) -> f64 {
+    crate::fastpow::pow(x, e)
+}
+
 /// (r - r_min)^beta, zero below the packing limit (the confinement cannot pull further).
-#[inline]
+#[inline(always)]
 fn confine(gap: f64, beta: f64) -> f64 {
     if gap > 0.0 {
         pow_int_or_real(gap, beta)

@@ -68,6 +68,8 @@ pub struct Plant {
     /// The last input change for learned terms over the time since it: [time [s], step of
     /// the observed steady map r1, r2 [mm]] (a zero step before the first change).
     change: [f64; 3],
+    /// `model.effects.is_empty()`, kept beside the model (the hot path asks it per call).
+    plain: bool,
 }
 
 /// Everything a [`Plant`] carries besides its model: enough to rebuild it bit-identically
@@ -114,6 +116,7 @@ impl Plant {
     pub fn new(model: Model, z_m: f64, omega: f64) -> Plant {
         let terms = InputTerms::new(&model, z_m, omega);
         let r = terms.steady.radii();
+        let plain = model.effects.is_empty();
         Plant {
             model,
             terms,
@@ -123,6 +126,7 @@ impl Plant {
             tol: Tolerances::default(),
             form: [r[0], 0.0, r[1], 0.0],
             change: [0.0; 3],
+            plain,
         }
     }
 
@@ -131,6 +135,7 @@ impl Plant {
     /// with a moving centroid, a shadow model updated by identification).
     pub fn set_model(&mut self, model: Model) {
         self.terms = InputTerms::new(&model, self.terms.z_m, self.terms.omega);
+        self.plain = model.effects.is_empty();
         self.model = model;
     }
 
@@ -403,10 +408,21 @@ impl Plant {
         }
     }
 
+    /// The observed radii r1, r2 \[mm\] alone (what [`Plant::outputs`] reports, without
+    /// copying the steady point): the state of ODE (4) when no effect is on.
+    #[inline]
+    pub fn observed_radii(&self) -> [f64; 2] {
+        if self.plain {
+            return self.r;
+        }
+        let o = self.outputs();
+        [o.r1, o.r2]
+    }
+
     /// Outputs at the current instant (every enabled effect applied).
     pub fn outputs(&self) -> PlantOutputs {
         let fx = &self.model.effects;
-        if fx.is_empty() {
+        if self.plain {
             return PlantOutputs {
                 r1: self.r[0],
                 r2: self.r[1],
