@@ -141,21 +141,28 @@ impl MagSwarm {
         &self.model
     }
 
+    /// The plant with the inputs in force, built from the parameters on first use.
+    #[inline]
     fn plant(&mut self) -> &mut Plant {
         if self.plant.is_none() {
-            let mut p = Plant::new(self.model.clone(), self.z_m, self.omega);
-            if let Some(rtol) = self.rtol {
-                p.tolerances_mut().rtol = rtol;
-            }
-            if !self.settle_at_start {
-                p.set_state([self.r_start[0] * 1e3, self.r_start[1] * 1e3]);
-            }
-            self.plant = Some(p);
+            self.build_plant();
         }
         let (z, w) = (self.z_m, self.omega);
         let p = self.plant.as_mut().expect("built above");
         p.set_inputs(z, w);
         p
+    }
+
+    #[cold]
+    fn build_plant(&mut self) {
+        let mut p = Plant::new(self.model.clone(), self.z_m, self.omega);
+        if let Some(rtol) = self.rtol {
+            p.tolerances_mut().rtol = rtol;
+        }
+        if !self.settle_at_start {
+            p.set_state([self.r_start[0] * 1e3, self.r_start[1] * 1e3]);
+        }
+        self.plant = Some(p);
     }
 
     fn invalidate(&mut self) {

@@ -44,6 +44,29 @@ pub struct InputTerms {
     de0: [f64; 2],
     /// d K_b,i / d(z_m, omega) (zero for constant gains).
     dk_b: [[f64; 2]; 2],
+    /// Which computation these terms came from (see [`TermsId`]).
+    id: TermsId,
+}
+
+/// A number no other [`InputTerms::new`] in this process returned: two terms with the same
+/// id are the same computation, so the integrator can recognise a communication step it has
+/// already taken without comparing every coefficient (`integrate`). Ignored by equality (it
+/// names a computation, not a value).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TermsId(pub u64);
+
+impl PartialEq for TermsId {
+    fn eq(&self, _: &TermsId) -> bool {
+        true
+    }
+}
+
+impl TermsId {
+    fn fresh() -> TermsId {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static NEXT: AtomicU64 = AtomicU64::new(1);
+        TermsId(NEXT.fetch_add(1, Ordering::Relaxed))
+    }
 }
 
 impl InputTerms {
@@ -76,6 +99,7 @@ impl InputTerms {
             k_b: [d.K_b1, d.K_b2],
             de0,
             dk_b: [[0.0; 2]; 2],
+            id: TermsId::fresh(),
         };
         if d.confinement == crate::params::Confinement::Scheduled {
             terms.schedule(model);
@@ -116,6 +140,12 @@ impl InputTerms {
                 self.dk_b[i][j] = (dnum - kb * dden) / den;
             }
         }
+    }
+
+    /// The identity of this computation (see [`TermsId`]).
+    #[inline]
+    pub fn id(&self) -> u64 {
+        self.id.0
     }
 
     /// Stiffness of each axis [S_x, S_y].

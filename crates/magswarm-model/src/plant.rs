@@ -160,18 +160,26 @@ impl Plant {
 
     /// Change the inputs, unchecked (for inputs known to be sane, e.g. from a log that was
     /// read with its rules); the coefficients of (4) are recomputed only if they differ.
+    #[inline]
     pub fn set_inputs(&mut self, z_m: f64, omega: f64) {
         if z_m != self.terms.z_m || omega != self.terms.omega {
-            let before = self.terms.steady;
-            self.terms = InputTerms::new(&self.model, z_m, omega);
-            let fx = &self.model.effects;
-            if fx.tracks_changes() {
-                // The step of the observed steady map this change makes, for the learned
-                // terms over the time since it.
-                let a = fx.observe_steady(&before, self.t);
-                let b = fx.observe_steady(&self.terms.steady, self.t);
-                self.change = [self.t, b.r1 - a.r1, b.r2 - a.r2];
-            }
+            self.change_inputs(z_m, omega);
+        }
+    }
+
+    /// The work of an input change, out of line: the hot path of [`Plant::set_inputs`] (the
+    /// inputs did not change) is two comparisons.
+    #[inline(never)]
+    fn change_inputs(&mut self, z_m: f64, omega: f64) {
+        let before = self.terms.steady;
+        self.terms = InputTerms::new(&self.model, z_m, omega);
+        let fx = &self.model.effects;
+        if fx.tracks_changes() {
+            // The step of the observed steady map this change makes, for the learned
+            // terms over the time since it.
+            let a = fx.observe_steady(&before, self.t);
+            let b = fx.observe_steady(&self.terms.steady, self.t);
+            self.change = [self.t, b.r1 - a.r1, b.r2 - a.r2];
         }
     }
 

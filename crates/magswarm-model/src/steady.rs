@@ -347,7 +347,9 @@ mod tests {
                 let phi = (p.N * (w.powf(p.q) - 1.0)).exp();
                 let r1 = p.C_1 * phi / sx.powf(p.alpha_1);
                 let r2 = p.C_2 * phi / sy.powf(p.alpha_2);
-                worst = worst.max(((sp.r1 - r1) / r1).abs()).max(((sp.r2 - r2) / r2).abs());
+                worst = worst
+                    .max(((sp.r1 - r1) / r1).abs())
+                    .max(((sp.r2 - r2) / r2).abs());
             }
         }
         assert!(worst < 1e-12, "relative difference {worst:e}");
