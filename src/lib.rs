@@ -1,7 +1,7 @@
 //! magswarm: a reduced-order model of magnetic microparticle swarms as software.
 //!
 //! The physics lives in [`model`] (crate `magswarm-model`, no FFI); the FMU is the crate
-//! `magswarm-fmu` (a generic FMI 2.0 shell from `magswarm-fmi2` over the plant); control
+//! `magswarm-fmu` (the plant behind the FMI 2.0 and 3.0 shells of `magswarm-fmi`); control
 //! lives in [`control`]. The measurement log is [`log`] (crate
 //! `magswarm-log`). This crate adds what works on files: the
 //! paper figures, identification, prediction, packaging, plots.
@@ -13,7 +13,8 @@ pub use magswarm_model as model;
 
 pub mod cli;
 pub mod control_cli;
-pub mod cosim;
+/// The importer side (crate `magswarm-cosim`): run packaged FMUs as external tools do.
+pub use magswarm_cosim as cosim;
 pub mod diagnose;
 pub mod identify;
 pub mod lab;

@@ -5,13 +5,13 @@
 //! would leave the folder (zip-slip), symbolic links, too many entries or too many bytes
 //! (zip bombs), and a missing `modelDescription.xml` are errors naming the entry.
 //!
-//! [`Fmu`]: super::Fmu
+//! [`Fmu`]: crate::Fmu
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, Once};
 
-use super::error::{CosimError, Result};
+use crate::error::{CosimError, Result};
 
 /// Most entries an FMU archive may have.
 pub const MAX_ENTRIES: usize = 10_000;

@@ -1,9 +1,10 @@
-//! The importer side of co-simulation: run a packaged `.fmu` (FMI 2.0 Co-Simulation) exactly
-//! as an external tool would, never through the model's Rust functions.
+//! The importer side of co-simulation: run a packaged `.fmu` (FMI 2.0 or 3.0 Co-Simulation)
+//! exactly as an external tool would, never through the model's Rust functions.
 //!
 //! - [`Fmu::load`] unpacks the archive into a temporary directory, parses
-//!   `modelDescription.xml` and loads `binaries/linux64/<modelIdentifier>.so` (the `fmi`
-//!   crate's import types; see [`Fmu`]). Variables are resolved by name from the XML
+//!   `modelDescription.xml` and loads `binaries/<platform>/<modelIdentifier>.so` (`linux64`
+//!   for FMI 2.0, `x86_64-linux` for FMI 3.0; the `fmi` crate's import types with its `fmi2`
+//!   and `fmi3` features; see [`Fmu`]). Variables are resolved by name from the XML
 //!   ([`Fmu::variable`], [`Fmu::real_vr`]); no value reference is hard-coded here.
 //! - [`FmuSlave`] is one instance behind a safe API: instantiate with a logger that captures
 //!   the FMU's messages ([`LogMessage`]: status, category, message), setup/enter/exit
@@ -18,7 +19,7 @@
 //!   `doStep`. [`CoSimulation::run`] is that loop with a closure over [`Measurement`].
 //!
 //! ```no_run
-//! use magswarm::cosim::{Fmu, SlaveOptions};
+//! use magswarm_cosim::{Fmu, SlaveOptions};
 //!
 //! let fmu = Fmu::load("target/fmu/MagSwarm.fmu")?;
 //! let mut s = fmu.instantiate("a", SlaveOptions::default())?;
@@ -33,8 +34,16 @@
 //! let bytes = s.serialize_state(&state)?;
 //! s.free_state(state)?;
 //! # let _ = (r1, r2, bytes);
-//! # Ok::<(), magswarm::cosim::CosimError>(())
+//! # Ok::<(), magswarm_cosim::CosimError>(())
 //! ```
+
+/// Push the name of every symbol the binding `$b` failed to load onto `$missing`.
+macro_rules! check_symbols {
+    ($b:expr, $missing:expr, $($sym:ident),* $(,)?) => {
+        $( if $b.$sym.is_err() { $missing.push(stringify!($sym)); } )*
+    };
+}
+pub(crate) use check_symbols;
 
 mod error;
 pub mod extract;
@@ -43,8 +52,11 @@ mod runner;
 mod slave;
 
 pub use error::{CosimError, Result, Status};
+/// The `fmi` crate this importer is built on (its raw bindings name [`Api`]'s function types).
+pub use fmi;
 pub use import::{Capabilities, Causality, Fmu, Start, VarType, Variable};
+pub use magswarm_fmi::FmiVersion;
 pub use runner::{
     CoSimConfig, CoSimulation, Command, FnSink, LogSink, Measurement, NoLog, ParamValue, RunSummary,
 };
-pub use slave::{FmuSlave, FmuState, LogMessage, SlaveOptions};
+pub use slave::{Api, FmuSlave, FmuState, LogMessage, Scalar, SlaveOptions};

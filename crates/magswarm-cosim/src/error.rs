@@ -1,54 +1,53 @@
 //! Errors of the importer side: what failed, with the FMI function, its status and what the
-//! FMU logged while it ran.
+//! FMU logged while it ran (the same for FMI 2.0 and 3.0 FMUs).
 
 use std::fmt;
 use std::path::PathBuf;
 
-use fmi::fmi2::binding;
-
-/// An `fmi2Status` as returned by the FMU.
+/// The status an FMI function returned (`fmi2Status` or `fmi3Status`: the same numbers;
+/// FMI 2.0 adds Pending).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Status {
-    /// `fmi2OK`.
+    /// OK.
     Ok,
-    /// `fmi2Warning`: the call did its work; the FMU logged why it warns.
+    /// Warning: the call did its work; the FMU logged why it warns.
     Warning,
-    /// `fmi2Discard`.
+    /// Discard.
     Discard,
-    /// `fmi2Error`.
+    /// Error.
     Error,
-    /// `fmi2Fatal`.
+    /// Fatal.
     Fatal,
     /// `fmi2Pending` (asynchronous doStep; MagSwarm never returns it).
     Pending,
 }
 
 impl Status {
-    /// From the C value; anything unknown counts as `fmi2Fatal`.
-    pub fn from_raw(s: binding::fmi2Status) -> Status {
+    /// From the C value (the same in FMI 2.0 and 3.0); anything unknown counts as Fatal.
+    pub fn from_raw(s: i32) -> Status {
         match s {
-            binding::fmi2Status_fmi2OK => Status::Ok,
-            binding::fmi2Status_fmi2Warning => Status::Warning,
-            binding::fmi2Status_fmi2Discard => Status::Discard,
-            binding::fmi2Status_fmi2Error => Status::Error,
-            binding::fmi2Status_fmi2Pending => Status::Pending,
+            0 => Status::Ok,
+            1 => Status::Warning,
+            2 => Status::Discard,
+            3 => Status::Error,
+            5 => Status::Pending,
             _ => Status::Fatal,
         }
     }
 
-    /// The FMI name (`fmi2OK`, `fmi2Warning`, ...).
+    /// The status's name without the version prefix (`OK`, `Warning`, ...).
     pub fn name(self) -> &'static str {
         match self {
-            Status::Ok => "fmi2OK",
-            Status::Warning => "fmi2Warning",
-            Status::Discard => "fmi2Discard",
-            Status::Error => "fmi2Error",
-            Status::Fatal => "fmi2Fatal",
-            Status::Pending => "fmi2Pending",
+            Status::Ok => "OK",
+            Status::Warning => "Warning",
+            Status::Discard => "Discard",
+            Status::Error => "Error",
+            Status::Fatal => "Fatal",
+            Status::Pending => "Pending",
         }
     }
 
-    /// `fmi2OK` or `fmi2Warning`: the call did its work.
+    /// OK or Warning: the call did its work.
     pub fn is_success(self) -> bool {
         matches!(self, Status::Ok | Status::Warning)
     }
@@ -82,7 +81,7 @@ pub enum CosimError {
         /// What is wrong, naming the entry.
         message: String,
     },
-    /// The FMU is not what this importer can run (not FMI 2.0 Co-Simulation, missing
+    /// The FMU is not what this importer can run (not FMI 2.0 or 3.0 Co-Simulation, missing
     /// symbols, a capability flag that is off).
     #[error("{0}")]
     Unsupported(String),
@@ -99,18 +98,20 @@ pub enum CosimError {
         /// Type in modelDescription.xml.
         found: &'static str,
     },
-    /// `fmi2Instantiate` returned NULL.
-    #[error("fmi2Instantiate returned NULL for instance {instance:?}: {message}")]
+    /// Instantiation (`fmi2Instantiate`, `fmi3InstantiateCoSimulation`) returned NULL.
+    #[error("{function} returned NULL for instance {instance:?}: {message}")]
     Instantiate {
+        /// The C function.
+        function: &'static str,
         /// Instance name.
         instance: String,
         /// What the FMU logged during the call.
         message: String,
     },
-    /// An FMI function returned `fmi2Discard`, `fmi2Error`, `fmi2Fatal` (or `fmi2Pending`).
+    /// An FMI function returned Discard, Error, Fatal (or `fmi2Pending`).
     #[error("{function} returned {status}: {message}")]
     Fmi {
-        /// The C function, e.g. `fmi2SetReal`.
+        /// The C function, e.g. `fmi2SetReal`, `fmi3SetFloat64`.
         function: &'static str,
         /// Its status.
         status: Status,

@@ -22,9 +22,9 @@
 use magswarm_control::driver::{run_loop, LoopError, Tick};
 use magswarm_control::plant::{Inputs, PlantError, Reading, SwarmPlant};
 
-use super::error::{CosimError, Result, Status};
-use super::import::Fmu;
-use super::slave::{FmuSlave, SlaveOptions};
+use crate::error::{CosimError, Result, Status};
+use crate::import::Fmu;
+use crate::slave::{FmuSlave, SlaveOptions};
 
 pub use magswarm_control::driver::{Command, FnSink, LogSink, NoLog};
 
