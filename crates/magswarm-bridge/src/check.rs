@@ -91,7 +91,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
                 Err(e) => Probe {
                     device: "robot dashboard",
                     ok: false,
-                    detail: e,
+                    detail: e.to_string(),
                 },
             },
         );

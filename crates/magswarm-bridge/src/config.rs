@@ -43,6 +43,9 @@ type Extra = BTreeMap<String, toml::Value>;
 /// `[robot]`.
 #[derive(Debug, Clone, Deserialize)]
 pub struct Robot {
+    /// Which arm (`"ur"`, the default: a UR e-Series controller).
+    #[serde(default = "d_ur")]
+    pub kind: String,
     /// Controller address.
     pub host: String,
     /// RTDE port (30004).
@@ -95,6 +98,13 @@ pub struct StepperCfg {
     /// Reply timeout \[s\].
     #[serde(default = "d_reply_timeout")]
     pub reply_timeout_s: f64,
+    /// The stepper watchdog stops the motor when the bridge sends nothing for this long \[s\]
+    /// (a hung bridge; a dead one is noticed at once).
+    #[serde(default = "d_watchdog_timeout")]
+    pub watchdog_timeout_s: f64,
+    /// The watchdog program (default: `magswarm-stepper-watchdog` beside the running program).
+    #[serde(default)]
+    pub watchdog_exe: Option<PathBuf>,
     /// Keys not known to the bridge.
     #[serde(flatten)]
     pub extra: Extra,
@@ -256,6 +266,9 @@ impl Default for ShadowCfg {
     }
 }
 
+fn d_ur() -> String {
+    "ur".into()
+}
 fn d_rtde() -> u16 {
     30004
 }
@@ -285,6 +298,9 @@ fn d_one() -> u8 {
 }
 fn d_reply_timeout() -> f64 {
     0.1
+}
+fn d_watchdog_timeout() -> f64 {
+    0.25
 }
 fn d_cam_timeout() -> f64 {
     0.5
@@ -367,6 +383,10 @@ impl RigConfig {
             ("robot.watchdog_hz", self.robot.watchdog_hz),
             ("stepper.velocity_per_hz", self.stepper.velocity_per_hz),
             ("stepper.reply_timeout_s", self.stepper.reply_timeout_s),
+            (
+                "stepper.watchdog_timeout_s",
+                self.stepper.watchdog_timeout_s,
+            ),
             ("camera.mm_per_px", self.camera.mm_per_px),
             ("camera.timeout_s", self.camera.timeout_s),
             ("camera.fps", self.camera.fps),
@@ -389,6 +409,16 @@ impl RigConfig {
         }
         if self.robot.host.trim().is_empty() {
             return Err(bad("robot.host", "empty".into()));
+        }
+        if !crate::robot::KINDS.contains(&self.robot.kind.as_str()) {
+            return Err(bad(
+                "robot.kind",
+                format!(
+                    "{:?} is not a known robot (known: {:?})",
+                    self.robot.kind,
+                    crate::robot::KINDS
+                ),
+            ));
         }
         if self.stepper.kind != "tmcl" {
             return Err(bad(

@@ -130,6 +130,9 @@ pub enum StepperError {
     /// A command out of range.
     #[error("stepper command rejected: {0}")]
     Command(String),
+    /// The stepper watchdog process is missing, died, or stopped the motor on silence.
+    #[error("stepper watchdog: {0}")]
+    Watchdog(String),
 }
 
 /// A driver that spins the magnet.
