@@ -243,13 +243,9 @@ pub fn from_config(
             ))
         }
         "emulated" => {
-            let model = match &c.model {
-                Some(p) => {
-                    let p = cfg.resolve(p);
-                    Model::load(&p).map_err(|e| format!("[camera] model {}: {e}", p.display()))?
-                }
-                None => Model::paper(),
-            };
+            let model = cfg
+                .model("camera.model", c.model.as_ref())
+                .map_err(|e| e.to_string())?;
             Ok(emulated(
                 model,
                 start,

@@ -26,6 +26,16 @@ pub enum ConfigError {
         /// toml's message.
         message: String,
     },
+    /// A model file named by the config cannot be read.
+    #[error("{key} = {path}: {message}")]
+    Model {
+        /// Dotted key path (`shadow.model`).
+        key: &'static str,
+        /// The model file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// A value out of range.
     #[error("{path}: `{key}`: {message}")]
     Invalid {
@@ -349,6 +359,26 @@ impl RigConfig {
             p.to_path_buf()
         } else {
             self.base.join(p)
+        }
+    }
+
+    /// The model a key names (`[shadow] model`, `[control] model`, `[camera] model`), or the
+    /// paper model when the key is absent.
+    pub fn model(
+        &self,
+        key: &'static str,
+        p: Option<&PathBuf>,
+    ) -> Result<magswarm_model::Model, ConfigError> {
+        match p {
+            None => Ok(magswarm_model::Model::paper()),
+            Some(p) => {
+                let path = self.resolve(p);
+                magswarm_model::Model::load(&path).map_err(|e| ConfigError::Model {
+                    key,
+                    path,
+                    message: e.to_string(),
+                })
+            }
         }
     }
 

@@ -10,6 +10,7 @@
 //! Nothing here is linked into the FMU libraries: sockets, serial lines and ptys stay in
 //! this crate.
 
+pub mod bake;
 pub mod camera;
 pub mod check;
 pub mod config;
@@ -22,6 +23,8 @@ pub mod rtde;
 pub mod run;
 pub mod safety;
 pub mod schedule;
+pub mod session;
+pub mod shadow;
 pub mod stepper;
 pub mod stepper_emu;
 pub mod ur;

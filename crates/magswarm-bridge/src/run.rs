@@ -13,12 +13,12 @@ use std::sync::Arc;
 
 use magswarm_control::{Controller, PidConfig};
 use magswarm_log::{Layout, LogRow, LogWriter};
-use magswarm_model::{Model, Plant};
 
 use crate::config::RigConfig;
 use crate::rig::{Poll, Rig};
 use crate::safety::{Envelope, Fault, FaultLatch};
 use crate::schedule::Schedule;
+use crate::shadow::Shadow;
 
 /// A caller's law: (t \[s\], measured radii \[mm\] when the frame is valid) -> (z_m \[mm\], f \[Hz\]).
 pub type Law = Arc<std::sync::Mutex<dyn FnMut(f64, Option<[f64; 2]>) -> (f64, f64) + Send>>;
@@ -108,16 +108,6 @@ struct LogCols {
     n_extra: usize,
 }
 
-fn load_model(cfg: &RigConfig, p: &Option<PathBuf>, what: &str) -> anyhow::Result<Model> {
-    Ok(match p {
-        Some(p) => {
-            let p = cfg.resolve(p);
-            Model::load(&p).map_err(|e| anyhow::anyhow!("{what} model {}: {e}", p.display()))?
-        }
-        None => Model::paper(),
-    })
-}
-
 /// Run. Setup errors (config, files, devices that cannot be reached) are `Err`; faults
 /// during the run are in the report.
 pub fn run(
@@ -151,7 +141,7 @@ pub fn run_with_camera(
     }
 
     // Controller (targets) and start inputs.
-    let ctrl_model = load_model(cfg, &cfg.control.model, "[control]")?;
+    let ctrl_model = cfg.model("control.model", cfg.control.model.as_ref())?;
     let mut controller = match &opts.mode {
         Mode::Targets(_) => {
             let pid = match &cfg.control.pid {
@@ -179,16 +169,7 @@ pub fn run_with_camera(
     );
 
     // Shadow model.
-    let mut shadow = if cfg.shadow.enabled {
-        let m = load_model(cfg, &cfg.shadow.model, "[shadow]")?;
-        Some(Plant::new(
-            m,
-            start.0 * 1e-3,
-            magswarm_model::hz_to_rad_s(start.1),
-        ))
-    } else {
-        None
-    };
+    let mut shadow = Shadow::from_config(cfg, start)?;
 
     // The log, flushed every row.
     let mut layout = Layout::standard(true, false, true, controller.is_some());
@@ -274,17 +255,7 @@ pub fn run_with_camera(
             rig.command(req)?;
             latencies.push(m.frame.arrived.elapsed().as_secs_f64());
             // Shadow model under the inputs in force up to t.
-            let mut sh = None;
-            if let Some(p) = shadow.as_mut() {
-                let dt = t - p.time();
-                if dt > 0.0 {
-                    p.set_inputs(applied.0 * 1e-3, magswarm_model::hz_to_rad_s(applied.1));
-                    let _ = p.step(dt);
-                }
-                // The shadow is compared with the camera's radii: its observed outputs.
-                let o = p.outputs();
-                sh = Some([o.r1, o.r2]);
-            }
+            let sh = shadow.as_mut().map(|p| p.advance(t, applied));
             let mut row = LogRow::new(t, applied.0, applied.1, valid.then_some([r.r1_mm, r.r2_mm]));
             row.valid = valid;
             if let Some(sp) = refs {
