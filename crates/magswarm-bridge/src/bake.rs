@@ -65,7 +65,11 @@ pub fn bake(path: &Path) -> Result<Baked, BakeError> {
     let mut files = Vec::new();
     let mut outside = Vec::new();
     let entry = |t: &toml::Table, sec: &str, key: &str| -> Option<String> {
-        t.get(sec)?.as_table()?.get(key)?.as_str().map(str::to_string)
+        t.get(sec)?
+            .as_table()?
+            .get(key)?
+            .as_str()
+            .map(str::to_string)
     };
     let set = |t: &mut toml::Table, sec: &str, key: &str, v: toml::Value| {
         if let Some(s) = t.get_mut(sec).and_then(toml::Value::as_table_mut) {
@@ -89,7 +93,12 @@ pub fn bake(path: &Path) -> Result<Baked, BakeError> {
             let full = cfg.resolve(Path::new(&p));
             let full = std::fs::canonicalize(&full).unwrap_or(full);
             outside.push(format!("{sec}.{key} = {}", full.display()));
-            set(&mut table, sec, key, toml::Value::String(full.display().to_string()));
+            set(
+                &mut table,
+                sec,
+                key,
+                toml::Value::String(full.display().to_string()),
+            );
         }
     }
     if let Some(s) = table.get_mut("stepper").and_then(toml::Value::as_table_mut) {
@@ -155,7 +164,9 @@ model = "shadow.json"
         assert!(back.stepper.watchdog_exe.is_none());
         assert_eq!(back.limits.z_m_mm, [3.5, 23.5]);
         assert!(back.camera.dir.as_ref().unwrap().is_absolute());
-        assert!(back.model("shadow.model", back.shadow.model.as_ref()).is_ok());
+        assert!(back
+            .model("shadow.model", back.shadow.model.as_ref())
+            .is_ok());
         assert!(b.outside.iter().any(|o| o.starts_with("camera.dir = /")));
         // A model file that does not load stops the baking, naming the key.
         std::fs::write(dir.path().join("shadow.json"), "{}").unwrap();

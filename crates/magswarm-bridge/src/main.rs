@@ -332,7 +332,8 @@ struct StepperTrace {
 impl StepperTrace {
     fn create(path: &Path) -> Result<StepperTrace, String> {
         use std::io::Write;
-        let f = std::fs::File::create(path).map_err(|e| format!("--trace {}: {e}", path.display()))?;
+        let f =
+            std::fs::File::create(path).map_err(|e| format!("--trace {}: {e}", path.display()))?;
         let mut out = std::io::BufWriter::new(f);
         let _ = writeln!(out, "t_unix_s,instruction,type,value").and_then(|_| out.flush());
         Ok(StepperTrace { out, written: 0 })

@@ -103,7 +103,9 @@ pub fn package(r: &Request<'_>) -> Result<String> {
 }
 
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 /// `documentation/index.html`: what the FMU does to the rig, and the baked config.

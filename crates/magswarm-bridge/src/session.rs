@@ -128,7 +128,12 @@ impl RigSession {
         let t0 = Instant::now();
         let mut g = lock(&s.cell);
         while g.view.frames == 0 && g.fault.is_none() && t0.elapsed() < wait {
-            g = s.cell.1.wait_timeout(g, wait / 10).map(|x| x.0).unwrap_or_else(|p| p.into_inner().0);
+            g = s
+                .cell
+                .1
+                .wait_timeout(g, wait / 10)
+                .map(|x| x.0)
+                .unwrap_or_else(|p| p.into_inner().0);
         }
         let failed = g.fault.clone();
         let frames = g.view.frames;
@@ -142,7 +147,10 @@ impl RigSession {
         }
         if frames == 0 {
             s.shutdown();
-            anyhow::bail!("[camera] no frame within {:.1} s of the start", wait.as_secs_f64());
+            anyhow::bail!(
+                "[camera] no frame within {:.1} s of the start",
+                wait.as_secs_f64()
+            );
         }
         Ok(s)
     }

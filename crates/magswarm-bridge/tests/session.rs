@@ -47,8 +47,14 @@ fn steps_follow_the_wall_clock_and_late_ones_are_reported() {
     // A host that comes 0.12 s late for a 0.05 s step: the step ends ~0.07 s late.
     std::thread::sleep(Duration::from_millis(120));
     let late = s.step(1.5, h, (12.0, 5.0)).unwrap();
-    eprintln!("step after a 120 ms pause: {:.1} ms late", late.as_secs_f64() * 1e3);
-    assert!(late > Duration::from_millis(40) && late < Duration::from_millis(200), "{late:?}");
+    eprintln!(
+        "step after a 120 ms pause: {:.1} ms late",
+        late.as_secs_f64() * 1e3
+    );
+    assert!(
+        late > Duration::from_millis(40) && late < Duration::from_millis(200),
+        "{late:?}"
+    );
     // The stepper turns at the requested 5 Hz (rate limited from 4 Hz at 2 Hz/s).
     assert_eq!(rig.emu.stepper.velocity().0, 5.0 * 51200.0);
     s.shutdown();
@@ -71,8 +77,14 @@ fn a_stalled_host_stops_the_rig() {
     assert_eq!(f.name(), "host_stalled");
     let stop = rig.first_stop_after(due).expect("an MST after the stall");
     let d = stop.duration_since(due);
-    eprintln!("host due, stalled: MST {:.1} ms later (max_late 300 ms)", d.as_secs_f64() * 1e3);
-    assert!(d >= Duration::from_millis(300) && d <= Duration::from_millis(450), "{d:?}");
+    eprintln!(
+        "host due, stalled: MST {:.1} ms later (max_late 300 ms)",
+        d.as_secs_f64() * 1e3
+    );
+    assert!(
+        d >= Duration::from_millis(300) && d <= Duration::from_millis(450),
+        "{d:?}"
+    );
 }
 
 #[test]

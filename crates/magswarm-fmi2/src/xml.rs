@@ -153,7 +153,11 @@ fn sorted_indices(info: &ModelInfo, vrs: &[u32]) -> Vec<usize> {
     v
 }
 
-fn write_xml(info: &ModelInfo, options: &XmlOptions, caps: Capabilities) -> std::io::Result<String> {
+fn write_xml(
+    info: &ModelInfo,
+    options: &XmlOptions,
+    caps: Capabilities,
+) -> std::io::Result<String> {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
 

@@ -101,18 +101,16 @@ fn watchdog_program(resources: &Path) -> Result<Option<PathBuf>, Fmi2Err> {
     if !p.is_file() {
         return Ok(None);
     }
-    let mode = std::fs::metadata(&p).map(|m| m.permissions().mode()).unwrap_or(0);
+    let mode = std::fs::metadata(&p)
+        .map(|m| m.permissions().mode())
+        .unwrap_or(0);
     if mode & 0o111 == 0o111 {
         return Ok(Some(p));
     }
     if std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o755)).is_ok() {
         return Ok(Some(p));
     }
-    let copy = std::env::temp_dir().join(format!(
-        "{}-{}",
-        watchdog::PROGRAM,
-        std::process::id()
-    ));
+    let copy = std::env::temp_dir().join(format!("{}-{}", watchdog::PROGRAM, std::process::id()));
     std::fs::copy(&p, &copy)
         .and_then(|_| std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755)))
         .map_err(|e| {
@@ -208,7 +206,10 @@ impl FmuModel for RigFmu {
             }
         };
         let m = RigFmu::new(dir)?;
-        ctx.debug(LOG_RIG, format!("rig config {}", dir.join(RESOURCE_CONFIG).display()));
+        ctx.debug(
+            LOG_RIG,
+            format!("rig config {}", dir.join(RESOURCE_CONFIG).display()),
+        );
         Ok(m)
     }
 
@@ -284,7 +285,10 @@ impl FmuModel for RigFmu {
         ctx.debug(LOG_RIG, "terminated: stepper stopped, robot held");
         match fault {
             Some(f) => {
-                ctx.debug(LOG_RIG, format!("the session had ended with {}: {f}", f.name()));
+                ctx.debug(
+                    LOG_RIG,
+                    format!("the session had ended with {}: {f}", f.name()),
+                );
                 Ok(())
             }
             None => Ok(()),
@@ -407,7 +411,9 @@ magswarm_fmi2::export_fmi2!(RigFmu);
 #[cfg(feature = "export")]
 magswarm_fmi2::export_describe!(|toml: Option<&str>| {
     match toml {
-        None => Some(magswarm_fmi2::model_description_xml::<RigFmu>(&Default::default())),
+        None => Some(magswarm_fmi2::model_description_xml::<RigFmu>(
+            &Default::default(),
+        )),
         Some(text) => {
             let cfg = RigConfig::parse(text, Path::new(RESOURCE_CONFIG)).ok()?;
             Some(table::model_description(&cfg, None))

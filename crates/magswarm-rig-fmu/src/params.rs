@@ -33,11 +33,16 @@ fn close(a: f64, b: f64) -> bool {
 
 /// `cfg` with the importer's values `set` (value reference -> SI value) applied to its
 /// limits, or the first value that is not allowed, naming its variable.
-pub fn apply(cfg: &RigConfig, set: &BTreeMap<u32, f64>, name: impl Fn(u32) -> &'static str) -> Result<RigConfig, String> {
+pub fn apply(
+    cfg: &RigConfig,
+    set: &BTreeMap<u32, f64>,
+    name: impl Fn(u32) -> &'static str,
+) -> Result<RigConfig, String> {
     let mut out = cfg.clone();
     let tau = std::f64::consts::TAU;
     for (&v, &x) in set {
-        let c = config_value(cfg, v).ok_or_else(|| format!("value reference {v} is not a rig parameter"))?;
+        let c = config_value(cfg, v)
+            .ok_or_else(|| format!("value reference {v} is not a rig parameter"))?;
         let n = name(v);
         let (lower_bound, what) = match v {
             vr::Z_M_MIN | vr::OMEGA_M_MIN => (true, "may narrow the config's limit, not widen it"),
@@ -54,7 +59,11 @@ pub fn apply(cfg: &RigConfig, set: &BTreeMap<u32, f64>, name: impl Fn(u32) -> &'
                 continue;
             }
         };
-        let widens = if lower_bound { x < c && !close(x, c) } else { x > c && !close(x, c) };
+        let widens = if lower_bound {
+            x < c && !close(x, c)
+        } else {
+            x > c && !close(x, c)
+        };
         if widens || !(x.is_finite() && x > 0.0) {
             return Err(format!("{n} = {x:e} {what} ({c:e})"));
         }
@@ -122,7 +131,10 @@ f_rate_hz_s = 2.0
     #[test]
     fn limits_narrow_and_never_widen() {
         let c = cfg();
-        let set = BTreeMap::from([(vr::Z_M_MIN, 0.005), (vr::OMEGA_M_MAX, 6.0 * std::f64::consts::TAU)]);
+        let set = BTreeMap::from([
+            (vr::Z_M_MIN, 0.005),
+            (vr::OMEGA_M_MAX, 6.0 * std::f64::consts::TAU),
+        ]);
         let n = apply(&c, &set, name).unwrap();
         assert!((n.limits.z_m_mm[0] - 5.0).abs() < 1e-9);
         assert!((n.limits.f_hz[1] - 6.0).abs() < 1e-9);
@@ -134,7 +146,12 @@ f_rate_hz_s = 2.0
         assert!(e.contains("z_m_max") && e.contains("not widen"), "{e}");
         let e = apply(&c, &BTreeMap::from([(vr::Z_M_RATE_MAX, 0.02)]), name).unwrap_err();
         assert!(e.contains("z_m_rate_max"), "{e}");
-        let e = apply(&c, &BTreeMap::from([(vr::Z_M_MIN, 0.02), (vr::Z_M_MAX, 0.01)]), name).unwrap_err();
+        let e = apply(
+            &c,
+            &BTreeMap::from([(vr::Z_M_MIN, 0.02), (vr::Z_M_MAX, 0.01)]),
+            name,
+        )
+        .unwrap_err();
         assert!(e.contains("below"), "{e}");
     }
 
@@ -143,7 +160,10 @@ f_rate_hz_s = 2.0
         let c = cfg();
         assert!(apply(&c, &BTreeMap::from([(vr::Z_TCP_AT_ZERO, 0.4)]), name).is_ok());
         let e = apply(&c, &BTreeMap::from([(vr::Z_TCP_AT_ZERO, 0.35)]), name).unwrap_err();
-        assert!(e.contains("z_tcp_at_zero") && e.contains("read-only"), "{e}");
+        assert!(
+            e.contains("z_tcp_at_zero") && e.contains("read-only"),
+            "{e}"
+        );
         let e = apply(&c, &BTreeMap::from([(vr::PIXEL_SIZE, 1e-4)]), name).unwrap_err();
         assert!(e.contains("pixel_size"), "{e}");
     }

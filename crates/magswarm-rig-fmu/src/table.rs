@@ -232,7 +232,10 @@ pub fn model_info() -> &'static ModelInfo {
 /// the config's limits (z_m \[mm\], f \[Hz\]).
 pub fn start_inputs(cfg: &RigConfig) -> (f64, f64) {
     let l = &cfg.limits;
-    let s = cfg.control.start.unwrap_or([Z_START * 1e3, OMEGA_START * INV_TWO_PI]);
+    let s = cfg
+        .control
+        .start
+        .unwrap_or([Z_START * 1e3, OMEGA_START * INV_TWO_PI]);
     (
         s[0].clamp(l.z_m_mm[0], l.z_m_mm[1]),
         s[1].clamp(l.f_hz[0], l.f_hz[1]),
@@ -255,7 +258,10 @@ pub fn start_values(cfg: &RigConfig) -> Vec<(u32, Start)> {
         (vr::OMEGA_M_RATE_MAX, Start::Real(l.f_rate_hz_s * tau)),
         (vr::Z_TCP_AT_ZERO, Start::Real(cfg.robot.z_tcp_at_zero_m)),
         (vr::PIXEL_SIZE, Start::Real(cfg.camera.mm_per_px * 1e-3)),
-        (vr::VELOCITY_PER_HZ, Start::Real(cfg.stepper.velocity_per_hz)),
+        (
+            vr::VELOCITY_PER_HZ,
+            Start::Real(cfg.stepper.velocity_per_hz),
+        ),
     ]
 }
 
