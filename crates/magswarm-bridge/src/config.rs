@@ -78,6 +78,10 @@ pub struct Robot {
     /// URScript watchdog frequency on the heartbeat register \[Hz\].
     #[serde(default = "d_watchdog")]
     pub watchdog_hz: f64,
+    /// Standard digital output (0..=7) wired to the stepper driver's enable: the servo
+    /// program sets it high; PolyScope's "Low when not running" drops it when it stops.
+    #[serde(default)]
+    pub stepper_enable_output: Option<u8>,
     /// Keys not known to the bridge.
     #[serde(flatten)]
     pub extra: Extra,
@@ -439,6 +443,14 @@ impl RigConfig {
         }
         if self.robot.host.trim().is_empty() {
             return Err(bad("robot.host", "empty".into()));
+        }
+        if let Some(n) = self.robot.stepper_enable_output {
+            if n > 7 {
+                return Err(bad(
+                    "robot.stepper_enable_output",
+                    format!("{n}: the control box has standard digital outputs 0 to 7"),
+                ));
+            }
         }
         if !crate::robot::KINDS.contains(&self.robot.kind.as_str()) {
             return Err(bad(

@@ -14,7 +14,9 @@
 //!   than real time.
 //! - Between steps the host is due at the end of the last step; when it is more than
 //!   `max_late` overdue (stopped, stuck, paused in a debugger) the keeper trips the
-//!   `host_stalled` fault: stepper stopped, robot held.
+//!   `host_stalled` fault: stepper stopped, robot held. The first step may come up to
+//!   `first_step_within` after the session opened (hosts set up between initialisation and
+//!   their first step).
 //! - Any fault stops the stepper and holds the robot at once (on the keeper thread), and is
 //!   returned by every later call.
 
@@ -39,6 +41,10 @@ pub struct SessionOptions {
     pub start: (f64, f64),
     /// The host may be this much overdue before the session stops the rig.
     pub max_late: Duration,
+    /// The first step may come this long after the session opened (a host often does more
+    /// set-up between initialisation and its first step); the rig holds its start inputs
+    /// meanwhile.
+    pub first_step_within: Duration,
 }
 
 /// One measured frame.
@@ -76,8 +82,9 @@ pub struct RigView {
 #[derive(Default)]
 struct Shared {
     request: Option<(f64, f64)>,
-    /// The host is due by then (None: inside a step, or before the first frame).
-    due: Option<Instant>,
+    /// The host is due by then (None: inside a step, or before the first frame), and may be
+    /// this much overdue.
+    due: Option<(Instant, Duration)>,
     stop: bool,
     fault: Option<Fault>,
     view: RigView,
@@ -95,6 +102,7 @@ pub struct RigSession {
     keeper: Option<JoinHandle<()>>,
     origin: Instant,
     anchored: bool,
+    max_late: Duration,
     /// The arm, the stepper and the camera, one line each.
     pub description: Vec<String>,
 }
@@ -112,16 +120,16 @@ impl RigSession {
         let cell: Cell = Arc::new((Mutex::new(Shared::default()), Condvar::new()));
         lock(&cell).view.in_force = rig.in_force();
         let c2 = cell.clone();
-        let max_late = opts.max_late;
         let keeper = std::thread::Builder::new()
             .name("rig-keeper".into())
-            .spawn(move || keep(rig, shadow, c2, max_late))
+            .spawn(move || keep(rig, shadow, c2))
             .map_err(|e| anyhow::anyhow!("spawning the rig keeper: {e}"))?;
         let mut s = RigSession {
             cell,
             keeper: Some(keeper),
             origin: Instant::now(),
             anchored: false,
+            max_late: opts.max_late,
             description,
         };
         let wait = Duration::from_secs_f64(cfg.camera.timeout_s) + Duration::from_secs(1);
@@ -137,8 +145,8 @@ impl RigSession {
         }
         let failed = g.fault.clone();
         let frames = g.view.frames;
-        // From now on the host is due at once: its first step.
-        g.due = Some(Instant::now());
+        // From now on the host is due: its first step.
+        g.due = Some((Instant::now(), opts.first_step_within.max(opts.max_late)));
         drop(g);
         s.origin = Instant::now();
         if let Some(f) = failed {
@@ -208,7 +216,7 @@ impl RigSession {
                 .map(|x| x.0)
                 .unwrap_or_else(|p| p.into_inner().0);
         }
-        g.due = Some(Instant::now());
+        g.due = Some((Instant::now(), self.max_late));
         Ok(late)
     }
 
@@ -229,21 +237,21 @@ impl Drop for RigSession {
 }
 
 /// The keeper's loop: the rig's run loop without a schedule.
-fn keep(mut rig: Rig, mut shadow: Option<Shadow>, cell: Cell, max_late: Duration) {
+fn keep(mut rig: Rig, mut shadow: Option<Shadow>, cell: Cell) {
     let fault = loop {
         let request = {
             let mut g = lock(&cell);
             if g.stop {
                 break None;
             }
-            if let Some(due) = g.due {
+            if let Some((due, limit)) = g.due {
                 let over = Instant::now().saturating_duration_since(due);
-                if over > max_late {
+                if over > limit {
                     break Some(Fault::HostStalled(format!(
-                        "no step for {:.3} s after one was due (limit max_late {:.3} s): the host \
+                        "no step for {:.3} s after one was due (limit {:.3} s): the host \
                          stopped calling, or is much slower than real time",
                         over.as_secs_f64(),
-                        max_late.as_secs_f64()
+                        limit.as_secs_f64()
                     )));
                 }
             }

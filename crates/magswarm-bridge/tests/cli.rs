@@ -48,9 +48,13 @@ fn sigterm_and_sigint_stop_the_rig_and_exit_nonzero() {
 
 #[test]
 fn sigkill_leaves_a_parseable_log_and_the_watchdogs_stop_stepper_and_robot() {
-    let rig = rig(&config_text("", "", ""));
+    let rig = rig(&config_text("stepper_enable_output = 2", "", ""));
     let mut child = rig.spawn_run(&rig.cfg_path, &["--duration", "30"]);
     rig.wait_rows(20, Duration::from_secs(20));
+    assert!(
+        rig.emu.robot.digital_out(2),
+        "the servo program did not enable the stepper"
+    );
     let cue = Instant::now();
     kill(Pid::from_raw(child.id() as i32), Signal::SIGKILL).unwrap();
     let st = child.wait().unwrap();
@@ -72,6 +76,11 @@ fn sigkill_leaves_a_parseable_log_and_the_watchdogs_stop_stepper_and_robot() {
     // No heartbeat any more: the program stops within the watchdog period (0.1 s).
     std::thread::sleep(Duration::from_millis(300));
     assert_eq!(rig.emu.robot.modes().2, runtime_state::STOPPED);
+    // The hardware layer: the enable output dropped with the program.
+    assert!(
+        !rig.emu.robot.digital_out(2),
+        "the stepper enable output is still high"
+    );
     assert!(rig.emu.robot.record().watchdog_stops >= 1);
     rig.assert_targets_inside();
 }

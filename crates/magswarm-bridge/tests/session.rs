@@ -15,6 +15,7 @@ fn open(rig: &Rig, max_late_s: f64) -> RigSession {
         &SessionOptions {
             start: (12.0, 4.0),
             max_late: Duration::from_secs_f64(max_late_s),
+            first_step_within: Duration::from_secs(10),
         },
     )
     .unwrap()
@@ -85,6 +86,36 @@ fn a_stalled_host_stops_the_rig() {
         d >= Duration::from_millis(300) && d <= Duration::from_millis(450),
         "{d:?}"
     );
+}
+
+#[test]
+fn the_first_step_may_come_late_but_not_never() {
+    let rig = rig(&config_text("", "", ""));
+    let mut s = RigSession::open(
+        &rig.cfg,
+        &SessionOptions {
+            start: (12.0, 4.0),
+            max_late: Duration::from_millis(200),
+            first_step_within: Duration::from_millis(800),
+        },
+    )
+    .unwrap();
+    // 0.5 s of set-up by the host before its first step: more than max_late, allowed.
+    std::thread::sleep(Duration::from_millis(500));
+    assert_eq!(s.step(0.0, 0.05, (12.0, 4.0)), Ok(Duration::ZERO));
+    drop(s);
+    let mut s = RigSession::open(
+        &rig.cfg,
+        &SessionOptions {
+            start: (12.0, 4.0),
+            max_late: Duration::from_millis(200),
+            first_step_within: Duration::from_millis(400),
+        },
+    )
+    .unwrap();
+    std::thread::sleep(Duration::from_millis(700));
+    let f = s.step(0.0, 0.05, (12.0, 4.0)).unwrap_err();
+    assert_eq!(f.name(), "host_stalled");
 }
 
 #[test]

@@ -39,6 +39,10 @@ use magswarm_fmi2::{Ctx, Fmi2Err, FmuModel, InstantiateArgs, ModelInfo, VarType}
 
 use table::{vr, LOG_RIG, MAX_LATE_DEFAULT, RESOURCE_CONFIG};
 
+/// How long after `fmi2ExitInitializationMode` the first `fmi2DoStep` may come (at least
+/// `max_late`): importers such as Simulink set up the rest of a model in between.
+pub const FIRST_STEP_WITHIN_S: f64 = 10.0;
+
 /// The outputs, refreshed after every step.
 #[derive(Debug, Clone, Copy, Default)]
 struct Outputs {
@@ -232,6 +236,7 @@ impl FmuModel for RigFmu {
         let opts = SessionOptions {
             start: (self.z_m * 1e3, self.omega / TAU),
             max_late: Duration::from_secs_f64(self.max_late),
+            first_step_within: Duration::from_secs_f64(FIRST_STEP_WITHIN_S),
         };
         let s = RigSession::open(&cfg, &opts)
             .map_err(|e| Fmi2Err::error(format!("the rig could not be opened: {e:#}")))?;

@@ -103,6 +103,7 @@ impl UrRobot {
                 z_max_m: r.z_tcp_at_zero_m + env.z_mm[1] * 1e-3,
                 z_rate_m_s: env.z_rate_mm_s * 1e-3,
                 watchdog_hz: r.watchdog_hz,
+                enable_output: r.stepper_enable_output,
             }
             .program();
             upload_script(&r.host, r.script_port, &prog, Duration::from_secs(2))

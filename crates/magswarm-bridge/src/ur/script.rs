@@ -17,6 +17,10 @@ pub struct ServoScript {
     pub z_rate_m_s: f64,
     /// Watchdog frequency on the heartbeat register \[Hz\].
     pub watchdog_hz: f64,
+    /// Standard digital output (0..=7) that enables the stepper driver: set high once the
+    /// bridge heartbeats; PolyScope drops it when the program stops if the output's action
+    /// is "Low when not running" (docs/bridge.md, wiring).
+    pub enable_output: Option<u8>,
 }
 
 impl ServoScript {
@@ -39,7 +43,7 @@ impl ServoScript {
   while read_input_integer_register(24) == 0:
     servoj(get_inverse_kin(p0), 0, 0, dt, 0.1, 300)
   end
-  while True:
+{enable}  while True:
     target = read_input_float_register(24)
     if target < magswarm_z_min:
       target = magswarm_z_min
@@ -64,6 +68,12 @@ end
             zmax = self.z_max_m,
             rate = self.z_rate_m_s,
             wd = self.watchdog_hz,
+            enable = match self.enable_output {
+                Some(n) => format!(
+                    "  # Stepper driver enable: low again whenever this program is not running.\n  set_standard_digital_out({n}, True)\n"
+                ),
+                None => String::new(),
+            },
         )
     }
 }
@@ -97,6 +107,7 @@ mod tests {
             z_max_m: 0.4235,
             z_rate_m_s: 0.01,
             watchdog_hz: 10.0,
+            enable_output: Some(3),
         }
         .program();
         assert!(p.starts_with("def magswarm_servo():"));
@@ -105,6 +116,7 @@ mod tests {
         assert!(p.contains("magswarm_z_max = 0.423500"));
         assert!(p.contains("rtde_set_watchdog(\"input_int_register_24\", 10.000, \"stop\")"));
         assert!(p.contains("read_input_float_register(24)"));
+        assert!(p.contains("  set_standard_digital_out(3, True)\n"));
         // Balanced blocks: every def/while/if has its end.
         let opens = p
             .lines()
