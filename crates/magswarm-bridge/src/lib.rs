@@ -15,6 +15,7 @@ pub mod camera;
 pub mod check;
 pub mod config;
 pub mod emulate;
+pub mod error;
 pub mod measure;
 pub mod plant;
 pub mod rig;

@@ -111,7 +111,41 @@ fn load(path: &Path) -> Result<RigConfig, String> {
     Ok(c)
 }
 
+/// The library reports through `log`; the program prints it on stderr (level from
+/// `$MAGSWARM_LOG`: error, warn, info (default), debug, trace).
+struct StderrLog;
+
+impl log::Log for StderrLog {
+    fn enabled(&self, m: &log::Metadata<'_>) -> bool {
+        m.level() <= log::max_level()
+    }
+
+    fn log(&self, r: &log::Record<'_>) {
+        if self.enabled(r.metadata()) {
+            let level = match r.level() {
+                log::Level::Error => "error",
+                log::Level::Warn => "warning",
+                log::Level::Info => "info",
+                log::Level::Debug => "debug",
+                log::Level::Trace => "trace",
+            };
+            eprintln!("magswarm-bridge: {level}: {}", r.args());
+        }
+    }
+
+    fn flush(&self) {}
+}
+
+static LOGGER: StderrLog = StderrLog;
+
 fn main() -> ExitCode {
+    let _ = log::set_logger(&LOGGER);
+    log::set_max_level(
+        std::env::var("MAGSWARM_LOG")
+            .ok()
+            .and_then(|l| l.parse().ok())
+            .unwrap_or(log::LevelFilter::Info),
+    );
     let cli = Cli::parse();
     match cli.cmd {
         Cmd::Run {
@@ -204,7 +238,7 @@ fn main() -> ExitCode {
             };
             let emu = match magswarm_bridge::emulate::start(&cfg, true) {
                 Ok(e) => e,
-                Err(e) => return fail(e),
+                Err(e) => return fail(e.to_string()),
             };
             // Make the config's stepper device point at the pty (a symlink), unless it is a
             // real device.

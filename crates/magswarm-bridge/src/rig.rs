@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use crate::camera::{self, CameraError, Frame, Measurer, Radii, Threaded};
 use crate::config::RigConfig;
+use crate::error::SetupError;
 use crate::robot::{self, Robot};
 use crate::run::Signals;
 use crate::safety::{Envelope, Fault, Shaper};
@@ -71,27 +72,30 @@ impl Rig {
         start: (f64, f64),
         signals: Signals,
         camera_override: Option<Box<dyn camera::Camera>>,
-    ) -> anyhow::Result<Rig> {
+    ) -> Result<Rig, SetupError> {
         let env = Envelope::from(&cfg.limits);
-        let measurer = Measurer::new(cfg.vision.as_ref(), cfg.camera.mm_per_px)
-            .map_err(|e| anyhow::anyhow!(e))?;
+        let measurer = Measurer::new(cfg.vision.as_ref(), cfg.camera.mm_per_px)?;
         let mut robot: Option<Box<dyn Robot>> = None;
         let mut stepper_dev = None;
         let mut z_now = None;
         if !dry_run {
             // The stepper first, through its watchdog, which stops it from now on whenever
             // this process dies or hangs.
+            let stepper_err = |source| SetupError::Stepper {
+                device: cfg.stepper.device.clone(),
+                source,
+            };
             let exe = watchdog::locate(cfg.stepper.watchdog_exe.as_ref().map(|p| cfg.resolve(p)))
-                .map_err(|e| anyhow::anyhow!("[stepper] {e}"))?;
+                .map_err(stepper_err)?;
             let guard = StepperGuard::spawn(
                 &exe,
                 &GuardSpec::from_config(&cfg.stepper),
                 Stdio::inherit(),
             )
-            .map_err(|e| anyhow::anyhow!("[stepper] {} {e}", cfg.stepper.device))?;
+            .map_err(stepper_err)?;
             stepper_dev = Some(guard);
             let mut rb = robot::open(cfg, &env)?;
-            z_now = Some(rb.check().map_err(|f| anyhow::anyhow!("[robot] {f}"))?);
+            z_now = Some(rb.check().map_err(SetupError::Fault)?);
             robot = Some(rb);
         }
         let shaper = Shaper::new(env, Some((z_now.unwrap_or(start.0), start.1)));
@@ -101,10 +105,9 @@ impl Rig {
         let (probe_cell, probe) = camera::command_probe();
         let source = match camera_override {
             Some(c) => c,
-            None => camera::from_config(cfg, cam_start, probe).map_err(|e| anyhow::anyhow!(e))?,
+            None => camera::from_config(cfg, cam_start, probe)?,
         };
-        let cam = Threaded::spawn(source, t0, cfg.emulator.camera_stops_after_s)
-            .map_err(|e| anyhow::anyhow!("[camera] {e}"))?;
+        let cam = Threaded::spawn(source, t0, cfg.emulator.camera_stops_after_s)?;
         let in_force = shaper.last().expect("started");
         let mut rig = Rig {
             robot,
@@ -124,7 +127,7 @@ impl Rig {
         };
         if let Err(f) = rig.command(start) {
             rig.shutdown(true);
-            anyhow::bail!("{f}");
+            return Err(SetupError::Fault(f));
         }
         Ok(rig)
     }

@@ -7,6 +7,7 @@
 //! controller should clamp again, as the UR's servo program does.
 
 use crate::config::RigConfig;
+use crate::error::SetupError;
 use crate::safety::{Envelope, Fault};
 
 /// The kinds of arm this build drives (`[robot] kind`), one per arm of [`open`].
@@ -31,9 +32,9 @@ pub trait Robot: Send {
 
 /// Connect to the arm of the config, bring it up and start its program, with the envelope
 /// `env` (the arm's own clamps where it has them).
-pub fn open(cfg: &RigConfig, env: &Envelope) -> anyhow::Result<Box<dyn Robot>> {
+pub fn open(cfg: &RigConfig, env: &Envelope) -> Result<Box<dyn Robot>, SetupError> {
     match cfg.robot.kind.as_str() {
         "ur" => Ok(Box::new(crate::ur::UrRobot::open(cfg, env)?)),
-        k => anyhow::bail!("[robot] kind {k:?}: not a known robot (known: {KINDS:?})"),
+        k => Err(SetupError::UnknownRobot(k.to_string())),
     }
 }

@@ -25,6 +25,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use crate::config::RigConfig;
+use crate::error::SetupError;
 use crate::rig::{Poll, Rig};
 use crate::run::Signals;
 use crate::safety::Fault;
@@ -110,9 +111,9 @@ pub struct RigSession {
 impl RigSession {
     /// Open every device of `cfg` (through the safety core, the stepper through its
     /// watchdog), send the start inputs and wait for the first measured frame.
-    pub fn open(cfg: &RigConfig, opts: &SessionOptions) -> anyhow::Result<RigSession> {
+    pub fn open(cfg: &RigConfig, opts: &SessionOptions) -> Result<RigSession, SetupError> {
         if opts.max_late.is_zero() {
-            anyhow::bail!("max_late must be positive");
+            return Err(SetupError::Duration("max_late must be positive".into()));
         }
         let shadow = Shadow::from_config(cfg, opts.start)?;
         let rig = Rig::open(cfg, false, opts.start, Signals::default(), None)?;
@@ -123,7 +124,10 @@ impl RigSession {
         let keeper = std::thread::Builder::new()
             .name("rig-keeper".into())
             .spawn(move || keep(rig, shadow, c2))
-            .map_err(|e| anyhow::anyhow!("spawning the rig keeper: {e}"))?;
+            .map_err(|e| SetupError::Thread {
+                what: "the rig keeper",
+                source: e,
+            })?;
         let mut s = RigSession {
             cell,
             keeper: Some(keeper),
@@ -151,14 +155,11 @@ impl RigSession {
         s.origin = Instant::now();
         if let Some(f) = failed {
             s.shutdown();
-            anyhow::bail!("{}: {f}", f.name());
+            return Err(SetupError::Fault(f));
         }
         if frames == 0 {
             s.shutdown();
-            anyhow::bail!(
-                "[camera] no frame within {:.1} s of the start",
-                wait.as_secs_f64()
-            );
+            return Err(SetupError::NoFirstFrame(wait.as_secs_f64()));
         }
         Ok(s)
     }

@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use super::{upload_script, Dashboard, ServoScript};
 use crate::config::RigConfig;
+use crate::error::SetupError;
 use crate::robot::Robot;
 use crate::rtde::proto::{runtime_state, safety_mode};
 use crate::rtde::{RobotState, UrLink};
@@ -58,27 +59,24 @@ impl UrRobot {
     }
 
     /// Connect, check, bring up, upload the servo program and wait for it to play.
-    pub fn open(cfg: &RigConfig, env: &Envelope) -> anyhow::Result<UrRobot> {
+    pub fn open(cfg: &RigConfig, env: &Envelope) -> Result<UrRobot, SetupError> {
         let r = &cfg.robot;
-        let link = UrLink::connect(&r.host, r.rtde_port, r.frequency_hz, Duration::from_secs(2))
-            .map_err(|e| anyhow::anyhow!("[robot] {e}"))?;
+        let link = UrLink::connect(&r.host, r.rtde_port, r.frequency_hz, Duration::from_secs(2))?;
         let first = link.wait_state(Duration::from_secs(2)).ok_or_else(|| {
-            anyhow::anyhow!(
-                "[robot] RTDE {}:{}: no data package within 2 s{}",
+            SetupError::RobotNotReady(format!(
+                "RTDE {}:{}: no data package within 2 s{}",
                 r.host,
                 r.rtde_port,
                 link.error().map(|e| format!(" ({e})")).unwrap_or_default()
-            )
+            ))
         })?;
         if first.safety_mode != safety_mode::NORMAL {
             // Never unlocked automatically: the operator clears it on the pendant.
-            anyhow::bail!("{}", Fault::SafetyMode(first.safety_mode));
+            return Err(SetupError::Fault(Fault::SafetyMode(first.safety_mode)));
         }
         let dash = if r.dashboard_port != 0 {
-            let mut d = Dashboard::connect(&r.host, r.dashboard_port, Duration::from_secs(2))
-                .map_err(|e| anyhow::anyhow!("[robot] {e}"))?;
-            d.bring_up(Duration::from_secs(10))
-                .map_err(|e| anyhow::anyhow!("[robot] {e}"))?;
+            let mut d = Dashboard::connect(&r.host, r.dashboard_port, Duration::from_secs(2))?;
+            d.bring_up(Duration::from_secs(10))?;
             Some(d)
         } else {
             None
@@ -96,7 +94,7 @@ impl UrRobot {
         };
         // First target: where the tool is, clamped to the envelope (the program rate limits).
         let z_now = rb.z_mm(&first).clamp(env.z_mm[0], env.z_mm[1]);
-        rb.command(z_now).map_err(|f| anyhow::anyhow!("{f}"))?;
+        rb.command(z_now).map_err(SetupError::Fault)?;
         if r.script_port != 0 {
             let prog = ServoScript {
                 z_min_m: r.z_tcp_at_zero_m + env.z_mm[0] * 1e-3,
@@ -106,21 +104,20 @@ impl UrRobot {
                 enable_output: r.stepper_enable_output,
             }
             .program();
-            upload_script(&r.host, r.script_port, &prog, Duration::from_secs(2))
-                .map_err(|e| anyhow::anyhow!("[robot] {e}"))?;
+            upload_script(&r.host, r.script_port, &prog, Duration::from_secs(2))?;
         }
         // Wait for the program to play, heartbeating.
         let t0 = Instant::now();
         loop {
-            rb.command(z_now).map_err(|f| anyhow::anyhow!("{f}"))?;
+            rb.command(z_now).map_err(SetupError::Fault)?;
             if let Some(s) = rb.link.state() {
                 if s.runtime_state == runtime_state::PLAYING {
                     break;
                 }
             }
             if t0.elapsed() > Duration::from_secs(3) {
-                anyhow::bail!(
-                    "[robot] the servo program is not playing 3 s after {} (runtime_state {})",
+                return Err(SetupError::RobotNotReady(format!(
+                    "the servo program is not playing 3 s after {} (runtime_state {})",
                     if r.script_port != 0 {
                         "the upload"
                     } else {
@@ -130,7 +127,7 @@ impl UrRobot {
                         .state()
                         .map(|s| runtime_state::name(s.runtime_state))
                         .unwrap_or("unknown")
-                );
+                )));
             }
             std::thread::sleep(Duration::from_millis(5));
         }
