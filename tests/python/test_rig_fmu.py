@@ -53,11 +53,16 @@ CONFIG = """
 [robot]
 host = "{host}"
 z_tcp_at_zero_m = 0.400
+# Longer link timeouts than the defaults: a loaded test machine can stall a stream 100 ms.
+timeout_s = 0.5
+watchdog_hz = 4.0
 
 [stepper]
 kind = "tmcl"
 device = "{dir}/tmcl"
 velocity_per_hz = {vph}
+watchdog_timeout_s = 0.5
+reply_timeout_s = 0.5
 
 [camera]
 kind = "emulated"

@@ -19,10 +19,15 @@ rtde_port = RTDE
 script_port = SCRIPT
 dashboard_port = DASH
 z_tcp_at_zero_m = 0.400
+# Longer than the defaults: a loaded test machine can stall the emulator's stream 100 ms.
+timeout_s = 0.5
+watchdog_hz = 4.0
 
 [stepper]
 device = "TTY"
 velocity_per_hz = 51200.0
+watchdog_timeout_s = 0.5
+reply_timeout_s = 0.5
 WATCHDOG
 
 [camera]

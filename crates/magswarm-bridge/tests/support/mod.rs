@@ -21,6 +21,14 @@ pub struct Rig {
 
 /// The config text; `{RTDE}`, `{DASH}`, `{SCRIPT}`, `{TTY}` are filled in once the emulators
 /// listen. `extra` is appended (more sections, e.g. `[emulator]` cues).
+///
+/// The link timeouts are longer than the defaults (RTDE 0.5 s instead of 0.1 s, the URScript
+/// watchdog 4 Hz instead of 10 Hz, the stepper watchdog 0.5 s instead of 0.25 s, a TMCL reply
+/// 0.5 s instead of 0.1 s): on a machine
+/// where several builds share two cores the emulator's 500 Hz stream, or the bridge's loop,
+/// can stall for 100 ms, which is not the fault under test. Faults are injected as events
+/// (a closed link, a protective stop, a killed process), whose detection does not wait for
+/// these timeouts.
 pub fn config_text(robot_extra: &str, camera_extra: &str, extra: &str) -> String {
     format!(
         r#"
@@ -30,6 +38,8 @@ rtde_port = {{RTDE}}
 script_port = {{SCRIPT}}
 dashboard_port = {{DASH}}
 z_tcp_at_zero_m = 0.400
+timeout_s = 0.5
+watchdog_hz = 4.0
 {robot_extra}
 
 [stepper]
@@ -39,6 +49,8 @@ baud = 9600
 module_address = 1
 motor = 0
 velocity_per_hz = 51200.0
+watchdog_timeout_s = 0.5
+reply_timeout_s = 0.5
 
 [camera]
 kind = "emulated"
