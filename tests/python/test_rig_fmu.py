@@ -203,6 +203,23 @@ def test_fmpy_step_drives_the_rig_in_real_time(rig):
     assert_stopped_at_the_end(rig, t0 + stop)
 
 
+def test_the_interface_is_magswarm_fmus(rig):
+    """z_m, omega_m, r1, r2: same names, causality, units and value references as MagSwarm.fmu."""
+    from fmpy import read_model_description
+
+    plant = {v.name: v for v in read_model_description(str(DEFAULT_FMU)).modelVariables}
+    md = read_model_description(str(rig.fmu))
+    ours = {v.name: v for v in md.modelVariables}
+    for n in ("z_m", "omega_m", "r1", "r2"):
+        a, b = ours[n], plant[n]
+        assert (a.causality, a.unit, a.displayUnit, a.valueReference) == \
+            (b.causality, b.unit, b.displayUnit, b.valueReference), n
+    assert md.coSimulation.canHandleVariableCommunicationStepSize
+    assert md.modelExchange is None
+    for n in ("valid", "r1_shadow", "r2_shadow", "late", "late_steps", "max_late", "z_m_max"):
+        assert n in ours, n
+
+
 def test_libcosim_step_drives_the_rig_in_real_time(rig):
     steps, step_ns = 60, 50_000_000
     cfg = {"mode": "single", "fmu": str(rig.fmu), "step_ns": step_ns, "steps": steps,

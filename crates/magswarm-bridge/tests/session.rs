@@ -9,16 +9,20 @@ use magswarm_bridge::safety::Fault;
 use magswarm_bridge::session::{RigSession, SessionOptions};
 use support::*;
 
-fn open(rig: &Rig, max_late_s: f64) -> RigSession {
+fn open_with(rig: &Rig, max_late_s: f64, first_step_within_s: f64) -> RigSession {
     RigSession::open(
         &rig.cfg,
         &SessionOptions {
             start: (12.0, 4.0),
             max_late: Duration::from_secs_f64(max_late_s),
-            first_step_within: Duration::from_secs(10),
+            first_step_within: Duration::from_secs_f64(first_step_within_s),
         },
     )
     .unwrap()
+}
+
+fn open(rig: &Rig, max_late_s: f64) -> RigSession {
+    open_with(rig, max_late_s, 10.0)
 }
 
 #[test]
@@ -91,28 +95,12 @@ fn a_stalled_host_stops_the_rig() {
 #[test]
 fn the_first_step_may_come_late_but_not_never() {
     let rig = rig(&config_text("", "", ""));
-    let mut s = RigSession::open(
-        &rig.cfg,
-        &SessionOptions {
-            start: (12.0, 4.0),
-            max_late: Duration::from_millis(200),
-            first_step_within: Duration::from_millis(800),
-        },
-    )
-    .unwrap();
+    let mut s = open_with(&rig, 0.2, 0.8);
     // 0.5 s of set-up by the host before its first step: more than max_late, allowed.
     std::thread::sleep(Duration::from_millis(500));
     assert_eq!(s.step(0.0, 0.05, (12.0, 4.0)), Ok(Duration::ZERO));
     drop(s);
-    let mut s = RigSession::open(
-        &rig.cfg,
-        &SessionOptions {
-            start: (12.0, 4.0),
-            max_late: Duration::from_millis(200),
-            first_step_within: Duration::from_millis(400),
-        },
-    )
-    .unwrap();
+    let mut s = open_with(&rig, 0.2, 0.4);
     std::thread::sleep(Duration::from_millis(700));
     let f = s.step(0.0, 0.05, (12.0, 4.0)).unwrap_err();
     assert_eq!(f.name(), "host_stalled");

@@ -20,7 +20,8 @@ pub const MODEL_IDENTIFIER: &str = "MagSwarmRig";
 /// The rig config inside the FMU's `resources/`.
 pub const RESOURCE_CONFIG: &str = "rig.toml";
 
-/// Value references.
+/// Value references: the names MagSwarm.fmu also has keep its value references (`z_m` 1,
+/// `omega_m` 2, `r1` 10, `r2` 11), so a tool's connections by reference carry over.
 pub mod vr {
     /// Input: magnet-swarm distance \[m\].
     pub const Z_M: u32 = 1;
