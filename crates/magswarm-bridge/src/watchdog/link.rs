@@ -1,7 +1,8 @@
 //! The bridge's side of the link: [`StepperGuard`] starts the watchdog program, hands it the
-//! frequency and the heartbeat, and reports what it says. To the rig it is what the stepper
-//! thread used to be: `rotate_hz` never waits for the serial line, errors come back later
-//! through `take_error`, `stop` stops the motor and ends the watchdog.
+//! frequency and the heartbeat, and reports what it says. A slow serial line (a TMCL
+//! transaction takes about 20 ms at 9600 baud) never delays the control loop: `rotate_hz`
+//! returns at once, errors come back later through `take_error`, `stop` stops the motor and
+//! ends the watchdog.
 
 use std::io::{BufRead, BufReader};
 use std::os::fd::OwnedFd;
