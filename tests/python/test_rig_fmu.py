@@ -220,6 +220,29 @@ def test_the_interface_is_magswarm_fmus(rig):
         assert n in ours, n
 
 
+def test_the_fmu_is_self_contained(rig, tmp_path):
+    """Config, watchdog and binary inside; the binary needs only the C runtime."""
+    import shutil
+
+    with zipfile.ZipFile(rig.fmu) as z:
+        names = set(z.namelist())
+        z.extractall(tmp_path)
+    for n in ("modelDescription.xml", "binaries/linux64/MagSwarmRig.so", "resources/rig.toml",
+              "resources/camera-model.json", "resources/magswarm-stepper-watchdog",
+              "documentation/index.html"):
+        assert n in names, n
+    # The baked config names the copied model relative to resources/, not the original file.
+    assert 'model = "camera-model.json"' in (tmp_path / "resources" / "rig.toml").read_text()
+    if shutil.which("ldd") is None:
+        pytest.skip("no ldd")
+    for binary in ("binaries/linux64/MagSwarmRig.so", "resources/magswarm-stepper-watchdog"):
+        out = subprocess.run(["ldd", str(tmp_path / binary)], capture_output=True, text=True).stdout
+        libs = [line.split()[0] for line in out.splitlines() if line.strip()]
+        allowed = ("linux-vdso", "libc.so", "libm.so", "libgcc_s.so", "ld-linux", "/lib64/ld-linux")
+        heavy = [lib for lib in libs if not lib.startswith(allowed)]
+        assert not heavy, f"{binary} links {heavy}"
+
+
 def test_libcosim_step_drives_the_rig_in_real_time(rig):
     steps, step_ns = 60, 50_000_000
     cfg = {"mode": "single", "fmu": str(rig.fmu), "step_ns": step_ns, "steps": steps,
