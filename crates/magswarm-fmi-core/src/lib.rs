@@ -124,9 +124,10 @@ pub use info::{
     BaseUnit, DefaultExperiment, DisplayUnit, LogCategory, ModelInfo, NamingConvention,
     UnitDefinition,
 };
-pub use instance::{create, Instance, Interface, Request};
+pub use instance::{create, Capability, Instance, Interface, Request};
 pub use log::Ctx;
 pub use mode::Mode;
 pub use model::{FmuModel, InstantiateArgs};
 pub use status::{ModelError, Status};
 pub use variable::{fmt_real, Causality, Initial, Start, VarType, Variability, Variable};
+pub use xml::{Capabilities, XmlOptions};

@@ -147,6 +147,17 @@ pub trait FmuModel: Clone + Send + Sized + 'static {
     /// values as if they had been set (`Err` leaves `self` unusable; the shell discards it).
     fn restore_state(&mut self, state: Self::State) -> Result<(), ModelError>;
 
+    /// Whether the instance can save and restore its state (`canGetAndSetFMUstate` and
+    /// `canSerializeFMUstate` in the XML). A model driving hardware cannot go back in time:
+    /// it sets this to `false`, and both shells refuse the FMU-state functions, naming the
+    /// capability, without cloning or serializing the model.
+    const CAN_GET_AND_SET_FMU_STATE: bool = true;
+
+    /// Whether the instance answers directional (and, in FMI 3.0, adjoint) derivatives
+    /// (`providesDirectionalDerivative(s)`, `providesAdjointDerivatives` in the XML);
+    /// `false` makes both shells refuse the calls.
+    const PROVIDES_DIRECTIONAL_DERIVATIVE: bool = true;
+
     /// The Jacobian of the `unknowns` with respect to the `knowns` (inputs and continuous
     /// states) at the current point, row-major (`unknowns.len()` rows of `knowns.len()`
     /// values). The shells derive both directional derivatives (`J v`) and, in FMI 3.0,

@@ -11,6 +11,7 @@ use quick_xml::Writer;
 
 use crate::info::{ModelInfo, UnitDefinition};
 use crate::log::all_categories;
+use crate::model::FmuModel;
 use crate::variable::{fmt_real, Start};
 
 /// Options that change the XML without changing the GUID.
@@ -34,6 +35,42 @@ impl XmlOptions {
             .find(|(v, _)| *v == vr)
             .map(|(_, s)| s)
             .or(table)
+    }
+}
+
+/// What the XML declares beside the variables: the interfaces and the optional functions
+/// (from the model's [`FmuModel`] constants).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Capabilities {
+    /// A `<ModelExchange>` element beside `<CoSimulation>`.
+    pub model_exchange: bool,
+    /// `canGetAndSetFMUstate` and `canSerializeFMUstate`.
+    pub fmu_state: bool,
+    /// `providesDirectionalDerivative(s)` (and FMI 3.0's `providesAdjointDerivatives`).
+    pub directional_derivative: bool,
+}
+
+impl Capabilities {
+    /// Everything: Model Exchange, FMU state, derivatives.
+    pub const ALL: Capabilities = Capabilities {
+        model_exchange: true,
+        fmu_state: true,
+        directional_derivative: true,
+    };
+
+    /// Co-Simulation only, with FMU state and derivatives.
+    pub const CO_SIMULATION: Capabilities = Capabilities {
+        model_exchange: false,
+        ..Capabilities::ALL
+    };
+
+    /// What model `M` declares.
+    pub fn of<M: FmuModel>() -> Capabilities {
+        Capabilities {
+            model_exchange: M::MODEL_EXCHANGE,
+            fmu_state: M::CAN_GET_AND_SET_FMU_STATE,
+            directional_derivative: M::PROVIDES_DIRECTIONAL_DERIVATIVE,
+        }
     }
 }
 

@@ -31,6 +31,8 @@ pub mod xml;
 
 #[doc(hidden)]
 pub use magswarm_fmi_core;
+/// `fmu_model_description` / `fmu_free_string`, which packaging calls for the XML.
+pub use magswarm_fmi_core::export_describe;
 
 pub use abi::Fmi2Status;
 pub use magswarm_fmi_core::{

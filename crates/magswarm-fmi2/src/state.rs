@@ -8,6 +8,7 @@
 //! never returns `fmi2Pending`.
 
 pub use magswarm_fmi_core::mode::{may_set, Mode};
+use magswarm_fmi_core::Capability;
 
 /// Every instance function of the FMI 2.0 Co-Simulation API.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -148,6 +149,22 @@ impl Func {
         Func::GetContinuousStates,
         Func::GetNominalsOfContinuousStates,
     ];
+
+    /// The optional group this function belongs to, with the XML attribute that declares it.
+    pub fn capability(self) -> Option<(Capability, &'static str)> {
+        match self {
+            Func::GetFmuState
+            | Func::SetFmuState
+            | Func::FreeFmuState
+            | Func::SerializedFmuStateSize
+            | Func::SerializeFmuState
+            | Func::DeSerializeFmuState => Some((Capability::FmuState, "canGetAndSetFMUstate")),
+            Func::GetDirectionalDerivative => {
+                Some((Capability::Derivatives, "providesDirectionalDerivative"))
+            }
+            _ => None,
+        }
+    }
 
     /// Whether the function belongs to Model Exchange only (refused on a Co-Simulation
     /// instance, whatever its state).

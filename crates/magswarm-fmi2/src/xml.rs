@@ -24,7 +24,7 @@ use magswarm_fmi_core::table::{is_initial_unknown, state_vrs, validate};
 use magswarm_fmi_core::xml::{self as common, b, check_overrides, join};
 use magswarm_fmi_core::{fmt_real, Causality, FmuModel, ModelInfo, Variable};
 
-pub use magswarm_fmi_core::xml::XmlOptions;
+pub use magswarm_fmi_core::xml::{Capabilities, XmlOptions};
 
 /// The modelDescription.xml of model `M`. Panics with every problem listed if the table
 /// is invalid (a programming error that must stop packaging); see
@@ -38,7 +38,7 @@ pub fn model_description_xml<M: FmuModel>(options: &XmlOptions) -> String {
 
 /// The modelDescription.xml of model `M`, or the list of problems with its table.
 pub fn try_model_description_xml<M: FmuModel>(options: &XmlOptions) -> Result<String, Vec<String>> {
-    model_description_xml_with(M::model_info(), options, M::MODEL_EXCHANGE)
+    model_description_xml_with(M::model_info(), options, Capabilities::of::<M>())
 }
 
 /// Non-generic core of [`model_description_xml`].
@@ -46,19 +46,19 @@ pub fn model_description_xml_for(
     info: &ModelInfo,
     options: &XmlOptions,
 ) -> Result<String, Vec<String>> {
-    model_description_xml_with(info, options, false)
+    model_description_xml_with(info, options, Capabilities::CO_SIMULATION)
 }
 
-/// [`model_description_xml_for`], with a `<ModelExchange>` element beside `<CoSimulation>`
-/// when `model_exchange` (the model's [`FmuModel::MODEL_EXCHANGE`]).
+/// [`model_description_xml_for`] with the capabilities `caps` (a `<ModelExchange>` element
+/// beside `<CoSimulation>`, FMU state, directional derivatives).
 pub fn model_description_xml_with(
     info: &ModelInfo,
     options: &XmlOptions,
-    model_exchange: bool,
+    caps: Capabilities,
 ) -> Result<String, Vec<String>> {
     validate(info)?;
     check_overrides(info, options)?;
-    write_xml(info, options, model_exchange).map_err(|e| vec![format!("XML writer error: {e}")])
+    write_xml(info, options, caps).map_err(|e| vec![format!("XML writer error: {e}")])
 }
 
 fn index_of(info: &ModelInfo, vr: u32) -> usize {
@@ -79,7 +79,7 @@ fn sorted_indices(info: &ModelInfo, vrs: &[u32]) -> Vec<usize> {
 fn write_xml(
     info: &ModelInfo,
     options: &XmlOptions,
-    model_exchange: bool,
+    caps: Capabilities,
 ) -> std::io::Result<String> {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
@@ -93,17 +93,18 @@ fn write_xml(
     root.push_attribute(("numberOfEventIndicators", "0"));
     w.write_event(Event::Start(root))?;
 
-    // Capabilities: what the shell implements, identical for every model.
-    if model_exchange {
+    // Capabilities: what the shell implements and the model declares.
+    let (state, dd) = (b(caps.fmu_state), b(caps.directional_derivative));
+    if caps.model_exchange {
         let mut me = BytesStart::new("ModelExchange");
         me.push_attribute(("modelIdentifier", info.model_identifier));
         me.push_attribute(("needsExecutionTool", b(false)));
         me.push_attribute(("completedIntegratorStepNotNeeded", b(true)));
         me.push_attribute(("canBeInstantiatedOnlyOncePerProcess", b(false)));
         me.push_attribute(("canNotUseMemoryManagementFunctions", b(true)));
-        me.push_attribute(("canGetAndSetFMUstate", b(true)));
-        me.push_attribute(("canSerializeFMUstate", b(true)));
-        me.push_attribute(("providesDirectionalDerivative", b(true)));
+        me.push_attribute(("canGetAndSetFMUstate", state));
+        me.push_attribute(("canSerializeFMUstate", state));
+        me.push_attribute(("providesDirectionalDerivative", dd));
         w.write_event(Event::Empty(me))?;
     }
     let mut cs = BytesStart::new("CoSimulation");
@@ -115,9 +116,9 @@ fn write_xml(
     cs.push_attribute(("canRunAsynchronuously", b(false)));
     cs.push_attribute(("canBeInstantiatedOnlyOncePerProcess", b(false)));
     cs.push_attribute(("canNotUseMemoryManagementFunctions", b(true)));
-    cs.push_attribute(("canGetAndSetFMUstate", b(true)));
-    cs.push_attribute(("canSerializeFMUstate", b(true)));
-    cs.push_attribute(("providesDirectionalDerivative", b(true)));
+    cs.push_attribute(("canGetAndSetFMUstate", state));
+    cs.push_attribute(("canSerializeFMUstate", state));
+    cs.push_attribute(("providesDirectionalDerivative", dd));
     w.write_event(Event::Empty(cs))?;
 
     common::write_unit_definitions(&mut w, info, true)?;

@@ -10,6 +10,7 @@
 //! belong to them are refused with a message saying why.
 
 pub use magswarm_fmi_core::mode::{may_set, Mode};
+use magswarm_fmi_core::Capability;
 
 /// Which interface a function belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -30,6 +31,25 @@ macro_rules! funcs {
         pub enum Func { $($v),* }
 
         impl Func {
+    /// The optional group this function belongs to, with the XML attribute that declares it.
+    pub fn capability(self) -> Option<(Capability, &'static str)> {
+        match self {
+            Func::GetFmuState
+            | Func::SetFmuState
+            | Func::FreeFmuState
+            | Func::SerializedFmuStateSize
+            | Func::SerializeFmuState
+            | Func::DeserializeFmuState => Some((Capability::FmuState, "canGetAndSetFMUState")),
+            Func::GetDirectionalDerivative => {
+                Some((Capability::Derivatives, "providesDirectionalDerivatives"))
+            }
+            Func::GetAdjointDerivative => {
+                Some((Capability::Derivatives, "providesAdjointDerivatives"))
+            }
+            _ => None,
+        }
+    }
+
             /// Every function, in the order of `fmi3Functions.h`.
             pub const ALL: &'static [Func] = &[$(Func::$v),*];
 

@@ -23,7 +23,7 @@ use magswarm_fmi_core::table::{is_initial_unknown, state_vrs, validate};
 use magswarm_fmi_core::xml::{self as common, b, check_overrides, join};
 use magswarm_fmi_core::{fmt_real, Causality, FmuModel, ModelInfo, Start, VarType, Variable};
 
-pub use magswarm_fmi_core::xml::XmlOptions;
+pub use magswarm_fmi_core::xml::{Capabilities, XmlOptions};
 
 use crate::shell::{info_of, type_name};
 
@@ -39,16 +39,15 @@ pub fn model_description_xml<M: FmuModel>(options: &XmlOptions) -> String {
 
 /// The FMI 3.0 modelDescription.xml of model `M`, or the list of problems with its table.
 pub fn try_model_description_xml<M: FmuModel>(options: &XmlOptions) -> Result<String, Vec<String>> {
-    model_description_xml_with(info_of::<M>(), options, M::MODEL_EXCHANGE)
+    model_description_xml_with(info_of::<M>(), options, Capabilities::of::<M>())
 }
 
 /// The FMI 3.0 modelDescription.xml of a table (which must have its independent variable:
-/// see [`magswarm_fmi_core::table::with_independent_time`]), with a `<ModelExchange>`
-/// element when `model_exchange`.
+/// see [`magswarm_fmi_core::table::with_independent_time`]) with the capabilities `caps`.
 pub fn model_description_xml_with(
     info: &ModelInfo,
     options: &XmlOptions,
-    model_exchange: bool,
+    caps: Capabilities,
 ) -> Result<String, Vec<String>> {
     validate(info)?;
     check_overrides(info, options)?;
@@ -63,13 +62,13 @@ pub fn model_description_xml_with(
                 .into(),
         ]);
     }
-    write_xml(info, options, model_exchange).map_err(|e| vec![format!("XML writer error: {e}")])
+    write_xml(info, options, caps).map_err(|e| vec![format!("XML writer error: {e}")])
 }
 
 fn write_xml(
     info: &ModelInfo,
     options: &XmlOptions,
-    model_exchange: bool,
+    caps: Capabilities,
 ) -> std::io::Result<String> {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
@@ -82,25 +81,26 @@ fn write_xml(
     common::push_root_attributes(&mut root, info, options);
     w.write_event(Event::Start(root))?;
 
-    // Capabilities: what the shell implements, identical for every model.
-    if model_exchange {
+    // Capabilities: what the shell implements and the model declares.
+    let (state, dd) = (b(caps.fmu_state), b(caps.directional_derivative));
+    if caps.model_exchange {
         let mut me = BytesStart::new("ModelExchange");
         me.push_attribute(("modelIdentifier", info.model_identifier));
         me.push_attribute(("canBeInstantiatedOnlyOncePerProcess", b(false)));
-        me.push_attribute(("canGetAndSetFMUState", b(true)));
-        me.push_attribute(("canSerializeFMUState", b(true)));
-        me.push_attribute(("providesDirectionalDerivatives", b(true)));
-        me.push_attribute(("providesAdjointDerivatives", b(true)));
+        me.push_attribute(("canGetAndSetFMUState", state));
+        me.push_attribute(("canSerializeFMUState", state));
+        me.push_attribute(("providesDirectionalDerivatives", dd));
+        me.push_attribute(("providesAdjointDerivatives", dd));
         me.push_attribute(("needsCompletedIntegratorStep", b(false)));
         w.write_event(Event::Empty(me))?;
     }
     let mut cs = BytesStart::new("CoSimulation");
     cs.push_attribute(("modelIdentifier", info.model_identifier));
     cs.push_attribute(("canBeInstantiatedOnlyOncePerProcess", b(false)));
-    cs.push_attribute(("canGetAndSetFMUState", b(true)));
-    cs.push_attribute(("canSerializeFMUState", b(true)));
-    cs.push_attribute(("providesDirectionalDerivatives", b(true)));
-    cs.push_attribute(("providesAdjointDerivatives", b(true)));
+    cs.push_attribute(("canGetAndSetFMUState", state));
+    cs.push_attribute(("canSerializeFMUState", state));
+    cs.push_attribute(("providesDirectionalDerivatives", dd));
+    cs.push_attribute(("providesAdjointDerivatives", dd));
     cs.push_attribute(("canHandleVariableCommunicationStepSize", b(true)));
     cs.push_attribute(("maxOutputDerivativeOrder", "0"));
     w.write_event(Event::Empty(cs))?;

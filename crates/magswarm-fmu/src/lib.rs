@@ -592,21 +592,13 @@ impl FmuModel for MagSwarm {
     }
 }
 
-// Every fmi2* and fmi3* symbol, and `fmu_model_description`: packaging asks the compiled
-// library for its own XML in either version, with the parameter start values of the model
-// JSON to bake in.
-#[cfg(feature = "export")]
-magswarm_fmi::export_fmu!(MagSwarm, |json: Option<&str>, version| {
-    let model = match json {
-        None => Model::paper(),
-        Some(text) => Model::from_json_str(text, "model").ok()?,
-    };
-    Some(model_description_for(&model, None, version))
-});
-
 mod jacobian;
 #[cfg(test)]
 mod tests;
+// The C symbols live in their own module (their own codegen unit), so that linking this
+// crate as an rlib next to another FMU crate never pulls them in.
+#[cfg(feature = "export")]
+mod ffi;
 mod variables;
 
 pub use variables::*;

@@ -94,6 +94,10 @@ use serde::{Deserialize, Serialize};
 mod state;
 #[cfg(test)]
 mod tests;
+// The C symbols live in their own module (their own codegen unit), so that linking this
+// crate as an rlib next to another FMU crate never pulls them in.
+#[cfg(feature = "export")]
+mod ffi;
 mod variables;
 
 pub use state::{MagSwarmPidState, RunningState};
@@ -712,15 +716,3 @@ impl FmuModel for MagSwarmPid {
         Ok(vec![0.0; unknowns.len() * knowns.len()])
     }
 }
-
-// Every fmi2* and fmi3* symbol, and `fmu_model_description`: packaging asks the compiled
-// library for its own XML in either version, with the parameter start values of the
-// controller configuration JSON to bake in.
-#[cfg(feature = "export")]
-magswarm_fmi::export_fmu!(MagSwarmPid, |json: Option<&str>, version| {
-    let cfg = match json {
-        None => PidConfig::default(),
-        Some(text) => PidConfig::from_json(text).ok()?,
-    };
-    Some(model_description_for(&cfg, None, version))
-});

@@ -267,6 +267,15 @@ impl<M: FmuModel> Drop for Instance<M> {
     }
 }
 
+/// An optional group of functions a model may decline.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Capability {
+    /// Get, set, free, serialize and deserialize the FMU state.
+    FmuState,
+    /// Directional and adjoint derivatives.
+    Derivatives,
+}
+
 impl<M: FmuModel> Instance<M> {
     /// The instance behind an importer's handle, if it carries `magic` (a live instance of
     /// the shell that uses that word).
@@ -324,6 +333,30 @@ impl<M: FmuModel> Instance<M> {
             visible: self.visible,
             logging_on: self.logging_on_at_instantiation,
         }
+    }
+
+    /// Refuse a call of an optional group the model declared it does not provide
+    /// ([`FmuModel::CAN_GET_AND_SET_FMU_STATE`], [`FmuModel::PROVIDES_DIRECTIONAL_DERIVATIVE`]);
+    /// `attribute` is the XML attribute that says so, as the shell's version spells it.
+    pub fn refuse_unsupported(
+        &mut self,
+        func: &'static str,
+        capability: Capability,
+        attribute: &str,
+    ) -> Option<Status> {
+        let provided = match capability {
+            Capability::FmuState => M::CAN_GET_AND_SET_FMU_STATE,
+            Capability::Derivatives => M::PROVIDES_DIRECTIONAL_DERIVATIVE,
+        };
+        (!provided).then(|| {
+            self.fail(
+                func,
+                Status::Error,
+                format!(
+                    "not supported by this FMU (its modelDescription.xml says {attribute}=\"false\")"
+                ),
+            )
+        })
     }
 
     /// Log `message` with `status` and move the state machine: Error → Error state,

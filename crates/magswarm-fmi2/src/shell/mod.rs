@@ -96,6 +96,11 @@ pub(crate) unsafe fn entry<M: FmuModel>(
                  function belongs to Model Exchange",
             );
         }
+        if let Some((cap, attribute)) = func.capability() {
+            if let Some(s) = i.refuse_unsupported(func.name(), cap, attribute) {
+                return s;
+            }
+        }
         if !func.allowed_in(mode) {
             let hint = match func {
                 Func::CancelStep => " (fmi2DoStep of this FMU never returns fmi2Pending, so there is nothing to cancel)",

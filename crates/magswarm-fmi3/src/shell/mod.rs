@@ -94,6 +94,11 @@ pub(crate) unsafe fn entry<M: FmuModel>(
                 ),
             );
         }
+        if let Some((cap, attribute)) = func.capability() {
+            if let Some(s) = i.refuse_unsupported(func.name(), cap, attribute) {
+                return s;
+            }
+        }
         let mode = i.mode();
         if !func.allowed_in(mode) {
             let hint = match (func, mode) {
