@@ -38,7 +38,7 @@ pub fn locate_library(
         if profile == "release" {
             cmd.arg("--release");
         }
-        eprintln!("building the FMU library: cargo build -p {krate} ({profile})");
+        log::info!("building the FMU library: cargo build -p {krate} ({profile})");
         let status = cmd
             .status()
             .with_context(|| format!("cannot run cargo to build {krate}"))?;

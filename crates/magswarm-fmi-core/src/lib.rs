@@ -128,6 +128,6 @@ pub use instance::{create, Capability, Instance, Interface, Request};
 pub use log::Ctx;
 pub use mode::Mode;
 pub use model::{FmuModel, InstantiateArgs};
-pub use status::{ModelError, Status};
+pub use status::{ModelError, Refusal, Status};
 pub use variable::{fmt_real, Causality, Initial, Start, VarType, Variability, Variable};
 pub use xml::{Capabilities, XmlOptions};

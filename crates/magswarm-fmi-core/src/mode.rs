@@ -7,6 +7,7 @@
 //! setting variables ([`may_set`]) are the same in both versions for the causalities these
 //! shells use.
 
+use crate::status::Refusal;
 use crate::variable::{Causality, Initial, Variability, Variable};
 
 /// The state of an instance (the importer sees it only through what calls are allowed).
@@ -86,7 +87,7 @@ impl Mode {
 /// - StepComplete: inputs and tunable parameters.
 ///
 /// `Err` carries the reason, for the log message.
-pub fn may_set(var: &Variable, mode: Mode) -> Result<(), String> {
+pub fn may_set(var: &Variable, mode: Mode) -> Result<(), Refusal> {
     let what = || {
         format!(
             "variable \"{}\" (causality={}, variability={}{})",
@@ -99,13 +100,16 @@ pub fn may_set(var: &Variable, mode: Mode) -> Result<(), String> {
         )
     };
     if var.variability == Variability::Constant {
-        return Err(format!("{} is a constant and cannot be set", what()));
+        return Err(Refusal(format!(
+            "{} is a constant and cannot be set",
+            what()
+        )));
     }
     if matches!(var.causality, Causality::Independent) {
-        return Err(format!(
+        return Err(Refusal(format!(
             "{} is the independent variable and cannot be set",
             what()
-        ));
+        )));
     }
     let is_input = var.causality == Causality::Input;
     let initial = var.effective_initial();
@@ -131,11 +135,11 @@ pub fn may_set(var: &Variable, mode: Mode) -> Result<(), String> {
             Mode::ContinuousTimeMode => "only continuous inputs can be set in continuous-time mode (tunable parameters in event mode)",
             _ => "no variable can be set in this state",
         };
-        Err(format!(
+        Err(Refusal(format!(
             "{} cannot be set in state {}: {rule}",
             what(),
             mode.name()
-        ))
+        )))
     }
 }
 
@@ -174,7 +178,7 @@ mod tests {
         assert!(may_set(&fixed, Mode::Instantiated).is_ok());
         assert!(may_set(&fixed, Mode::InitializationMode).is_ok());
         let e = may_set(&fixed, Mode::StepComplete).unwrap_err();
-        assert!(e.contains("\"p\"") && e.contains("tunable"), "{e}");
+        assert!(e.0.contains("\"p\"") && e.0.contains("tunable"), "{e}");
         assert!(may_set(&input, Mode::Terminated).is_err());
     }
 }

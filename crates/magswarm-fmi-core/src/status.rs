@@ -83,3 +83,28 @@ impl ModelError {
         Self::error(format!("unknown {} value reference {vr}", ty.as_str()))
     }
 }
+
+/// Why the shell refuses a call or an instantiation: the message it logs (an unknown or
+/// mistyped value reference, a variable that may not be set in this mode, an interface the
+/// FMU does not offer).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct Refusal(pub String);
+
+impl From<String> for Refusal {
+    fn from(s: String) -> Self {
+        Refusal(s)
+    }
+}
+
+impl From<&str> for Refusal {
+    fn from(s: &str) -> Self {
+        Refusal(s.to_string())
+    }
+}
+
+impl AsRef<str> for Refusal {
+    fn as_ref(&self) -> &str {
+        &self.0
+    }
+}

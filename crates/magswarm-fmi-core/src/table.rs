@@ -7,6 +7,7 @@
 //! `validate_fmu`) check, plus the shell's own rule that value references are unique
 //! across types, so that dependency lists are unambiguous.
 
+use crate::status::Refusal;
 use std::collections::{HashMap, HashSet};
 
 use crate::info::ModelInfo;
@@ -92,19 +93,19 @@ impl Table {
     /// The variable with value reference `vr` if it has type `ty`, else a message
     /// for the log.
     #[inline]
-    pub fn typed(&self, vr: u32, ty: VarType) -> Result<&'static Variable, String> {
+    pub fn typed(&self, vr: u32, ty: VarType) -> Result<&'static Variable, Refusal> {
         match self.get(vr) {
             Some(v) if v.ty == ty => Ok(v),
-            Some(v) => Err(format!(
+            Some(v) => Err(Refusal(format!(
                 "value reference {vr} is variable \"{}\" of type {}, not {}",
                 v.name,
                 v.ty.as_str(),
                 ty.as_str()
-            )),
-            None => Err(format!(
+            ))),
+            None => Err(Refusal(format!(
                 "unknown value reference {vr} (no {} variable has it)",
                 ty.as_str()
-            )),
+            ))),
         }
     }
 }

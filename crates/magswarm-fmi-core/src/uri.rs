@@ -6,7 +6,7 @@
 //! All of those are accepted; other schemes and remote hosts are rejected, because the FMU
 //! can only read local files.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Why a resource location could not be turned into a local path.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -79,6 +79,31 @@ pub fn packaged_resources() -> Option<PathBuf> {
     }
     let res = binaries.parent()?.join("resources");
     res.is_dir().then_some(res)
+}
+
+/// The resource file `name` an instance reads: `resource_dir/name` if it is a file, `None` if
+/// neither the importer's resource location nor the FMU's own `resources/` (`packaged`) has
+/// it (the model's built-in defaults apply). When the FMU was packaged with `name` but the
+/// location the importer passed lacks it, the importer pointed the FMU elsewhere and the
+/// defaults would silently be the wrong ones: an error naming both folders.
+pub fn packaged_resource(
+    resource_dir: Option<&Path>,
+    packaged: Option<&Path>,
+    name: &str,
+) -> Result<Option<PathBuf>, crate::ModelError> {
+    let given = resource_dir.map(|d| d.join(name)).filter(|p| p.is_file());
+    let baked = packaged.map(|d| d.join(name)).filter(|p| p.is_file());
+    match (given, baked) {
+        (Some(p), _) => Ok(Some(p)),
+        (None, Some(b)) => Err(crate::ModelError::error(format!(
+            "this FMU was packaged with {} but the resource location passed at instantiation \
+             ({}) holds no {name}; refusing to run with the built-in defaults instead (pass the \
+             unpacked FMU's resources folder as the resource location)",
+            b.display(),
+            resource_dir.map_or("none".to_string(), |d| d.display().to_string())
+        ))),
+        (None, None) => Ok(None),
+    }
 }
 
 #[cfg(unix)]

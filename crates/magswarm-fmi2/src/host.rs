@@ -6,6 +6,7 @@
 //! invariants every call must keep: the state machine matches what the calls returned, and
 //! an instance that stepped or initialised without error has finite outputs.
 
+use magswarm_fmi_core::Refusal;
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::marker::PhantomData;
 use std::ptr::null_mut;
@@ -354,7 +355,12 @@ impl<M: FmuModel> Host<M> {
     /// instance in Fatal, an Error one in Error (or Fatal); in a state where getters are
     /// allowed, every Real output reads OK and finite; every Error or Fatal was explained
     /// through the logger (`logged_before` = number of messages before the call).
-    pub fn check(&self, status: Fmi2Status, logged_before: usize) -> Result<(), String> {
+    pub fn check(&self, status: Fmi2Status, logged_before: usize) -> Result<(), Refusal> {
+        self.broken_invariant(status, logged_before)
+            .map_err(Refusal)
+    }
+
+    fn broken_invariant(&self, status: Fmi2Status, logged_before: usize) -> Result<(), String> {
         let mode = self.mode();
         match status {
             Fmi2Status::Fatal if mode != Mode::Fatal => {

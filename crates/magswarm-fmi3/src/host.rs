@@ -3,6 +3,7 @@
 //! them, with a logger that records every message. [`Host::check`] states the invariants
 //! every call must keep (the same as the FMI 2.0 host's).
 
+use magswarm_fmi_core::Refusal;
 use std::ffi::{c_char, c_void, CStr, CString};
 use std::marker::PhantomData;
 use std::ptr::null_mut;
@@ -385,7 +386,12 @@ impl<M: FmuModel> Host<M> {
     /// `check`): Fatal leaves the instance in Fatal, Error in Error (or Fatal); where getters
     /// are allowed every Real output reads OK and finite; every Error or Fatal was explained
     /// through the logger (`logged_before` = messages before the call).
-    pub fn check(&self, status: Status, logged_before: usize) -> Result<(), String> {
+    pub fn check(&self, status: Status, logged_before: usize) -> Result<(), Refusal> {
+        self.broken_invariant(status, logged_before)
+            .map_err(Refusal)
+    }
+
+    fn broken_invariant(&self, status: Status, logged_before: usize) -> Result<(), String> {
         let mode = self.mode();
         match status {
             Status::Fatal if mode != Mode::Fatal => {

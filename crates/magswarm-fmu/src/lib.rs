@@ -98,27 +98,14 @@ impl MagSwarm {
         resource_dir: Option<&Path>,
         packaged: Option<&Path>,
     ) -> Result<MagSwarm, ModelError> {
-        let baked = packaged
-            .map(|d| d.join(RESOURCE_MODEL))
-            .filter(|p| p.is_file());
-        let (default_model, default_source) = match resource_dir.map(|d| d.join(RESOURCE_MODEL)) {
-            Some(p) if p.is_file() => (
+        let resource =
+            magswarm_fmi::uri::packaged_resource(resource_dir, packaged, RESOURCE_MODEL)?;
+        let (default_model, default_source) = match resource {
+            Some(p) => (
                 Model::load(&p).map_err(|e| ModelError::error(format!("resources: {e}")))?,
                 p.display().to_string(),
             ),
-            _ => {
-                if let Some(b) = baked {
-                    return Err(ModelError::error(format!(
-                        "this FMU was packaged with the model {} but the resource location \
-                         passed to fmi2Instantiate ({}) holds no {RESOURCE_MODEL}; refusing to \
-                         simulate the built-in paper model instead (pass the unpacked FMU's \
-                         resources folder as fmuResourceLocation)",
-                        b.display(),
-                        resource_dir.map_or("none".to_string(), |d| d.display().to_string())
-                    )));
-                }
-                (Model::paper(), "built-in paper model".to_string())
-            }
+            None => (Model::paper(), "built-in paper model".to_string()),
         };
         Ok(MagSwarm {
             model: default_model.clone(),

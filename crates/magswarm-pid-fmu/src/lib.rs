@@ -9,9 +9,9 @@
 //! (`examples/pid_tracking.py`, this FMU) compute the same commands.
 //!
 //! Layout: the variable table and the XML generated from it are in `variables`, the state
-//! type in `state`, the unit tests in `tests`; this file is the instance (its fields, how it is
-//! built, and the FMI calls of `FmuModel` that map variables onto the controller), one cohesive
-//! thing of about 700 lines.
+//! type in `state`, reading configuration files in `config`, the C symbols in `ffi`, the unit
+//! tests in `tests`; this file is the instance (its fields, how it is built, and the calls of
+//! `FmuModel` that map variables onto the controller).
 //!
 //! # Interface (SI, display units for people)
 //!
@@ -79,7 +79,7 @@
 // in them has its own block and SAFETY comment.
 #![deny(unsafe_op_in_unsafe_fn)]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::LazyLock;
 
 use magswarm_control::{inverse_with, Controller, ControllerSnapshot, InverseOptions, PidConfig};
@@ -91,6 +91,9 @@ use magswarm_fmi::{
 use magswarm_model::Model;
 use serde::{Deserialize, Serialize};
 
+use config::{first_absurd_number, load_config};
+
+mod config;
 mod state;
 #[cfg(test)]
 mod tests;
@@ -137,26 +140,6 @@ pub struct MagSwarmPid {
     goal_for: [f64; 2],
 }
 
-fn read_json_resource(dir: Option<&Path>, name: &str) -> Option<PathBuf> {
-    dir.map(|d| d.join(name)).filter(|p| p.is_file())
-}
-
-fn load_config(path: &Path) -> Result<PidConfig, ModelError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| ModelError::error(format!("cannot read {}: {e}", path.display())))?;
-    PidConfig::from_json(&text).map_err(|e| ModelError::error(format!("{}: {e}", path.display())))
-}
-
-/// The first number in `v` whose magnitude exceeds `max` (or that is not finite).
-fn first_absurd_number(v: &serde_json::Value, max: f64) -> Option<f64> {
-    match v {
-        serde_json::Value::Number(n) => n.as_f64().filter(|x| x.is_nan() || x.abs() > max),
-        serde_json::Value::Array(a) => a.iter().find_map(|x| first_absurd_number(x, max)),
-        serde_json::Value::Object(o) => o.values().find_map(|x| first_absurd_number(x, max)),
-        _ => None,
-    }
-}
-
 impl MagSwarmPid {
     /// A fresh instance; defaults from `resource_dir/model.json` and `resource_dir/pid.json`
     /// when present.
@@ -171,24 +154,13 @@ impl MagSwarmPid {
         resource_dir: Option<&Path>,
         packaged: Option<&Path>,
     ) -> Result<MagSwarmPid, ModelError> {
-        for name in [RESOURCE_MODEL, RESOURCE_CONFIG] {
-            let baked = packaged.map(|d| d.join(name)).filter(|p| p.is_file());
-            if let (Some(b), None) = (baked, read_json_resource(resource_dir, name)) {
-                return Err(ModelError::error(format!(
-                    "this FMU was packaged with {} but the resource location passed to \
-                     fmi2Instantiate ({}) holds no {name}; refusing to run with the built-in \
-                     defaults instead (pass the unpacked FMU's resources folder as \
-                     fmuResourceLocation)",
-                    b.display(),
-                    resource_dir.map_or("none".to_string(), |d| d.display().to_string())
-                )));
-            }
-        }
-        let default_model = match read_json_resource(resource_dir, RESOURCE_MODEL) {
+        let resource = |name| magswarm_fmi::uri::packaged_resource(resource_dir, packaged, name);
+        let (model_json, config_json) = (resource(RESOURCE_MODEL)?, resource(RESOURCE_CONFIG)?);
+        let default_model = match model_json {
             Some(p) => Model::load(&p).map_err(|e| ModelError::error(format!("resources: {e}")))?,
             None => Model::paper(),
         };
-        let default_cfg = match read_json_resource(resource_dir, RESOURCE_CONFIG) {
+        let default_cfg = match config_json {
             Some(p) => load_config(&p)?,
             None => PidConfig::default(),
         };

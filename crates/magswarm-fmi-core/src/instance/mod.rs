@@ -12,6 +12,7 @@
 //! Parts: [`values`] (get/set), [`step`] (Co-Simulation steps, directional and adjoint
 //! derivatives), [`me`] (Model Exchange), [`fmu_state`] (FMU states and their bytes).
 
+use crate::status::Refusal;
 use std::ffi::CString;
 use std::path::PathBuf;
 
@@ -60,7 +61,7 @@ pub struct Request {
     /// The resource location passed (`None`: NULL).
     pub resource_location: Option<String>,
     /// The interface asked for, or why the request names none the FMU offers.
-    pub interface: Result<Interface, String>,
+    pub interface: Result<Interface, Refusal>,
     /// Where the messages go (`None`: the importer gave no logger).
     pub sink: Option<LogSink>,
     /// `visible`.
@@ -88,7 +89,7 @@ pub fn create<M: FmuModel>(req: Request) -> Option<Box<Instance<M>>> {
     let warn = |logger: &Logger, msg: String| {
         logger.log(Status::Warning, CAT_WARNING, &format!("{f}: {msg}"));
     };
-    let checked = (|| -> Result<(String, Interface, Table, u128), String> {
+    let checked = (|| -> Result<(String, Interface, Table, u128), Refusal> {
         let name = match req.name {
             Some(n) if !n.trim().is_empty() => n,
             Some(_) => return Err("instanceName must not be empty".into()),
@@ -96,11 +97,11 @@ pub fn create<M: FmuModel>(req: Request) -> Option<Box<Instance<M>>> {
         };
         let interface = req.interface?;
         if interface == Interface::ModelExchange && !M::MODEL_EXCHANGE {
-            return Err(format!(
+            return Err(Refusal(format!(
                 "Model Exchange requested, but {} implements Co-Simulation only (instantiate \
                  it for Co-Simulation)",
                 info.model_identifier
-            ));
+            )));
         }
         let table = Table::new(info).map_err(|p| {
             format!(
@@ -114,11 +115,11 @@ pub fn create<M: FmuModel>(req: Request) -> Option<Box<Instance<M>>> {
             .token
             .ok_or_else(|| format!("{} must not be NULL", req.token_arg))?;
         if given.trim() != expected {
-            return Err(format!(
+            return Err(Refusal(format!(
                 "{} mismatch: the importer passed {given} but this binary is {expected}; the \
                  modelDescription.xml does not belong to this binary",
                 req.token_arg
-            ));
+            )));
         }
         Ok((name, interface, table, guid))
     })();

@@ -5,7 +5,7 @@ use std::ffi::{c_char, c_int};
 use magswarm_fmi_core::barrier::{barrier, drop_payload};
 use magswarm_fmi_core::ffi::{opt_str, slice};
 use magswarm_fmi_core::log::{to_c_lossy, LogSink};
-use magswarm_fmi_core::{FmuModel, Instance, Interface, Request, Status};
+use magswarm_fmi_core::{FmuModel, Instance, Interface, Refusal, Request, Status};
 
 use super::{entry, instance, null_arg, INSTANCE_MAGIC};
 use crate::abi::*;
@@ -50,9 +50,9 @@ pub unsafe fn fmi2_instantiate<M: FmuModel>(
     let interface = match fmu_type {
         FMI2_CO_SIMULATION => Ok(Interface::CoSimulation),
         FMI2_MODEL_EXCHANGE => Ok(Interface::ModelExchange),
-        other => Err(format!(
+        other => Err(Refusal(format!(
             "invalid fmuType {other} (expected 0 = fmi2ModelExchange or 1 = fmi2CoSimulation)"
-        )),
+        ))),
     };
     let req = Request {
         magic: INSTANCE_MAGIC,

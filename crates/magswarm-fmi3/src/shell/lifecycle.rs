@@ -6,7 +6,7 @@ use std::ffi::c_char;
 use magswarm_fmi_core::barrier::{barrier, drop_payload};
 use magswarm_fmi_core::ffi::{opt_str, slice};
 use magswarm_fmi_core::log::{to_c_lossy, LogSink};
-use magswarm_fmi_core::{FmuModel, Instance, Interface, Request, Status};
+use magswarm_fmi_core::{FmuModel, Instance, Interface, Refusal, Request, Status};
 
 use super::{entry, instance, null_arg, unsupported, INSTANCE_MAGIC};
 use crate::abi::*;
@@ -53,7 +53,7 @@ fn log_sink(cb: Option<Fmi3LogMessageCallback>, env: Fmi3InstanceEnvironment) ->
 #[allow(clippy::too_many_arguments)]
 unsafe fn instantiate<M: FmuModel>(
     function: &'static str,
-    interface: Result<Interface, String>,
+    interface: Result<Interface, Refusal>,
     instance_name: Fmi3String,
     instantiation_token: Fmi3String,
     resource_path: Fmi3String,
@@ -140,13 +140,13 @@ pub unsafe fn fmi3_instantiate_co_simulation<M: FmuModel>(
         Err(
             "eventModeUsed = true, but this FMU has no event mode in Co-Simulation \
              (hasEventMode is not declared): instantiate with eventModeUsed = false"
-                .to_string(),
+                .into(),
         )
     } else if n_required > 0 {
-        Err(format!(
+        Err(Refusal(format!(
             "{n_required} requiredIntermediateVariables, but this FMU provides no intermediate \
              update (providesIntermediateUpdate is not declared)"
-        ))
+        )))
     } else {
         Ok(Interface::CoSimulation)
     };
