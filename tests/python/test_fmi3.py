@@ -22,15 +22,17 @@ def _unit(v):
     return unit, display
 
 
-def test_fmpy_validates_the_fmi3_fmus(fmu3_path, pid_paths):
+def test_fmpy_validates_all_four_fmus(fmu_path, fmu3_path, pid_paths):
+    """The plant and the controller, FMI 2.0 and 3.0: fmpy finds nothing to report."""
     from fmpy import read_model_description
     from fmpy.validation import validate_fmu
 
-    for path in (fmu3_path, pid_paths[3]):
+    for path, version in ((fmu_path, "2.0"), (pid_paths[2], "2.0"), (fmu3_path, "3.0"), (pid_paths[3], "3.0")):
         assert validate_fmu(str(path)) == [], path
         md = read_model_description(str(path))
-        assert md.fmiVersion == "3.0"
-        assert md.coSimulation.providesAdjointDerivatives
+        assert md.fmiVersion == version
+        if version == "3.0":
+            assert md.coSimulation.providesAdjointDerivatives
 
 
 @pytest.mark.parametrize("which", ["plant", "pid"])

@@ -40,6 +40,10 @@ static HOOK: std::sync::Once = std::sync::Once::new();
 /// instead. Panics elsewhere go to the previous hook. In the FMU's own shared library this
 /// hook belongs to the library's private copy of std, so the host's hook is not touched.
 fn quiet_panics() {
+    // Every call after the first: one atomic load.
+    if HOOK.is_completed() {
+        return;
+    }
     // `set_hook` panics when called while the thread is panicking (e.g. a Rust host freeing
     // instances while unwinding): try again at a later call.
     if std::thread::panicking() {
@@ -61,8 +65,12 @@ fn quiet_panics() {
 /// `catch_unwind` with the quiet hook in force: the panic barrier of every entry point.
 pub fn barrier<R>(f: impl FnOnce() -> R) -> std::thread::Result<R> {
     quiet_panics();
-    IN_BARRIER.with(|d| d.set(d.get() + 1));
-    let r = catch_unwind(AssertUnwindSafe(f));
-    IN_BARRIER.with(|d| d.set(d.get().saturating_sub(1)));
-    r
+    // One thread-local lookup for both the increment and the decrement (in a shared library
+    // each lookup is a call into the dynamic loader).
+    IN_BARRIER.with(|d| {
+        d.set(d.get() + 1);
+        let r = catch_unwind(AssertUnwindSafe(f));
+        d.set(d.get().saturating_sub(1));
+        r
+    })
 }

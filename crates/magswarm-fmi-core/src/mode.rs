@@ -87,7 +87,24 @@ impl Mode {
 /// - StepComplete: inputs and tunable parameters.
 ///
 /// `Err` carries the reason, for the log message.
+#[inline]
 pub fn may_set(var: &Variable, mode: Mode) -> Result<(), Refusal> {
+    // The common case first (an input, every call of a master): no table of rules needed.
+    if var.causality == Causality::Input && var.variability != Variability::Constant {
+        match mode {
+            Mode::Instantiated
+            | Mode::InitializationMode
+            | Mode::StepComplete
+            | Mode::EventMode => return Ok(()),
+            Mode::ContinuousTimeMode if var.variability == Variability::Continuous => return Ok(()),
+            _ => {}
+        }
+    }
+    may_set_by_rules(var, mode)
+}
+
+#[inline(never)]
+fn may_set_by_rules(var: &Variable, mode: Mode) -> Result<(), Refusal> {
     let what = || {
         format!(
             "variable \"{}\" (causality={}, variability={}{})",

@@ -171,16 +171,19 @@ impl Plant {
     /// inputs did not change) is two comparisons.
     #[inline(never)]
     fn change_inputs(&mut self, z_m: f64, omega: f64) {
+        let fx = &self.model.effects;
+        if !fx.tracks_changes() {
+            self.terms = InputTerms::new(&self.model, z_m, omega);
+            return;
+        }
         let before = self.terms.steady;
         self.terms = InputTerms::new(&self.model, z_m, omega);
+        // The step of the observed steady map this change makes, for the learned terms over
+        // the time since it.
         let fx = &self.model.effects;
-        if fx.tracks_changes() {
-            // The step of the observed steady map this change makes, for the learned
-            // terms over the time since it.
-            let a = fx.observe_steady(&before, self.t);
-            let b = fx.observe_steady(&self.terms.steady, self.t);
-            self.change = [self.t, b.r1 - a.r1, b.r2 - a.r2];
-        }
+        let a = fx.observe_steady(&before, self.t);
+        let b = fx.observe_steady(&self.terms.steady, self.t);
+        self.change = [self.t, b.r1 - a.r1, b.r2 - a.r2];
     }
 
     /// Put the state on the steady map of the current inputs (formation complete).
