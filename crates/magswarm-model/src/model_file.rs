@@ -110,6 +110,15 @@ impl Model {
         Model::from_json_str(&text, &name)
     }
 
+    /// The model a command works with: the file at `path` (loaded and validated), else the
+    /// built-in paper model. Every `--model` option is optional with this default.
+    pub fn load_or_paper(path: Option<&Path>) -> Result<Model, ModelError> {
+        match path {
+            Some(p) => Model::load(p),
+            None => Ok(Model::paper()),
+        }
+    }
+
     /// Serialise to pretty JSON (validated first, so a saved file always loads).
     pub fn to_json(&self) -> Result<String, ModelError> {
         self.validate()?;

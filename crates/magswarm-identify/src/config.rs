@@ -1,10 +1,9 @@
-//! The configuration of an identification: the command's flags (`IdentifyArgs`), their
-//! library face ([`Config`]) and the free/fixed split they resolve to.
+//! The configuration of an identification ([`Config`], what the command's flags set) and the
+//! free/fixed split it resolves to.
 
 use super::data::SettleRule;
 use super::params::{self, Free, Group};
-use crate::cli::IdentifyArgs;
-use anyhow::{bail, Result};
+use crate::IdentifyError;
 use magswarm_model::effects::Stage;
 
 /// Collinearity policy.
@@ -71,77 +70,11 @@ impl Default for Config {
 }
 
 impl Config {
-    /// Build from the command-line flags.
-    pub fn from_args(a: &IdentifyArgs) -> Result<Config> {
-        let mut c = Config::default();
-        if let Some(f) = &a.free {
-            c.free = f
-                .iter()
-                .map(|s| s.trim().to_string())
-                .filter(|s| !s.is_empty())
-                .collect();
-        }
-        for n in &a.fix {
-            let n = n.trim();
-            if params::def(n).is_none() {
-                bail!(
-                    "--fix {n}: unknown parameter (known: {})",
-                    params::known_names()
-                );
-            }
-            c.free.retain(|x| x != n);
-        }
-        for b in &a.bound {
-            let parsed = b.split_once('=').and_then(|(n, r)| {
-                let (lo, hi) = r.split_once(':')?;
-                Some((
-                    n.trim().to_string(),
-                    lo.trim().parse().ok()?,
-                    hi.trim().parse().ok()?,
-                ))
-            });
-            match parsed {
-                Some((n, lo, hi)) if lo < hi => c.bounds.push((n, lo, hi)),
-                _ => bail!("--bound {b:?}: expected NAME=LO:HI with LO < HI"),
-            }
-        }
-        c.settle = match a.settle_s {
-            Some(s) if s >= 0.0 && s.is_finite() => SettleRule::Fixed(s),
-            Some(s) => bail!("--settle-s {s}: must be a finite number >= 0"),
-            None if a.settle_factor >= 0.0 && a.settle_factor.is_finite() => {
-                SettleRule::TimeConstants(a.settle_factor)
-            }
-            None => bail!("--settle-factor {}: must be >= 0", a.settle_factor),
-        };
-        c.starts = a.starts.max(1);
-        c.bootstrap = a.bootstrap;
-        c.seed = a.seed;
-        c.collinear = match a.collinear.as_str() {
-            "fix" => Collinear::Fix {
-                cond_max: a.cond_max,
-            },
-            "ridge" => Collinear::Ridge {
-                lambda: a.ridge_lambda,
-            },
-            "report" => Collinear::Report,
-            o => bail!("--collinear {o}: expected fix, ridge or report"),
-        };
-        c.dynamics = !a.no_dynamics;
-        c.withhold_every = a.withhold_every;
-        c.progress = true;
-        Ok(c)
-    }
-
-    pub(super) fn resolve(&self) -> Result<(Vec<Free>, Vec<Free>)> {
+    pub(super) fn resolve(&self) -> Result<(Vec<Free>, Vec<Free>), IdentifyError> {
         let mut st = Vec::new();
         let mut dy = Vec::new();
         for n in &self.free {
-            let mut f = Free::new(n).ok_or_else(|| {
-                anyhow::anyhow!(
-                    "--free {n}: unknown parameter (known: {})",
-                    params::known_names()
-                )
-            })?;
+            let mut f = Free::new(n).ok_or_else(|| unknown_parameter("--free", n))?;
             if let Some((_, lo, hi)) = self.bounds.iter().find(|b| &b.0 == n) {
                 f.lo = *lo;
                 f.hi = *hi;
@@ -157,13 +90,19 @@ impl Config {
         }
         for (n, _, _) in &self.bounds {
             if params::def(n).is_none() {
-                bail!(
-                    "--bound {n}: unknown parameter (known: {})",
-                    params::known_names()
-                );
+                return Err(unknown_parameter("--bound", n));
             }
         }
         Ok((st, dy))
+    }
+}
+
+/// A parameter name identify does not know, named with the option that gave it.
+pub fn unknown_parameter(option: &'static str, name: &str) -> IdentifyError {
+    IdentifyError::UnknownParameter {
+        option,
+        name: name.to_string(),
+        known: params::known_names(),
     }
 }
 

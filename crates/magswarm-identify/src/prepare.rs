@@ -5,7 +5,14 @@
 use super::data::{self, OpPoint, Weighting};
 use super::params::Free;
 use super::result::Counts;
-use anyhow::{bail, Result};
+use crate::IdentifyError;
+
+/// Refuse with a message that says why the data cannot identify the free set.
+macro_rules! bail {
+    ($($t:tt)*) => {
+        return Err(IdentifyError::NotIdentifiable(format!($($t)*)))
+    };
+}
 
 /// Row counts of classified sessions.
 pub(super) fn count(sessions: &[data::Session]) -> Counts {
@@ -71,7 +78,11 @@ pub(super) fn distinct(v: impl Iterator<Item = f64>) -> Vec<f64> {
 }
 
 /// Refuse data that cannot identify the free parameters, saying what is missing.
-pub(super) fn check_identifiable(points: &[OpPoint], free: &[Free], counts: &Counts) -> Result<()> {
+pub(super) fn check_identifiable(
+    points: &[OpPoint],
+    free: &[Free],
+    counts: &Counts,
+) -> Result<(), IdentifyError> {
     if counts.settled == 0 {
         bail!(
             "no settled rows: all {} valid rows lie within the settle time of an input change \

@@ -2,10 +2,10 @@
 //! printed on stderr. Rendered from the [`Identification`] as computed (its predictions
 //! included); nothing is refitted or re-predicted here except the smooth Phi(f) curve.
 
-use super::data;
-use super::{params, Collinear, Estimate, Identification};
 use crate::plot;
 use anyhow::{Context, Result};
+use magswarm_identify::data;
+use magswarm_identify::{params, Collinear, Estimate, Identification};
 use std::fmt::Write as _;
 use std::path::Path;
 

@@ -22,7 +22,7 @@
 //! over all visits and files into one operating point: mean, repeat standard deviation, MAD
 //! (median absolute deviation, unscaled as the seed reports it) and the number of visits.
 
-use crate::log::Log;
+use magswarm_log::Log;
 use magswarm_model::dynamics::{eig2, InputTerms};
 use magswarm_model::{hz_to_rad_s, Model};
 use std::collections::BTreeMap;

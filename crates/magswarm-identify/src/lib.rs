@@ -1,4 +1,11 @@
-//! `magswarm identify`: fit the plant to measured logs, with uncertainty and identifiability.
+//! Fit the plant to measured logs (`magswarm identify`), with uncertainty and
+//! identifiability, and replay logs through a model ([`predict`], `magswarm predict`).
+//!
+//! The public face is [`identify()`] with its [`Config`] and the [`Identification`] it
+//! returns; [`data`] (sessions, visits, the settle rule), [`params`] (the fittable registry
+//! rows and their transforms), [`predict_point`] / [`predict_mean`] (the observed steady map a
+//! fit compares with) and [`predict`] are what other fits (diagnose) build on. The option names
+//! below (`--free`, ...) are the command's; the library takes them as [`Config`] fields.
 //!
 //! The pipeline (each step documented in its module):
 //!
@@ -25,7 +32,7 @@
 //!    steady fit repeated if it changed.
 //! 5. Bootstrap over operating points (`--bootstrap N`) checks the Jacobian CIs.
 //! 6. The model file (`Model::save`, with provenance) and, with `--report DIR`, a report
-//!    ([`report`]).
+//!    (crate `magswarm-report`).
 //!
 //! The prior model (`--model`, default the paper model) supplies the start, every fixed
 //! parameter, the conventions, the magnet geometry and the dynamics not fitted.
@@ -33,25 +40,26 @@
 mod config;
 pub mod data;
 pub mod dynfit;
+mod error;
 pub mod fit;
 pub mod params;
+pub mod predict;
 mod prepare;
-pub mod report;
 mod result;
 mod steady_fit;
 mod transient;
 mod uncertainty;
 
-pub use crate::cli::IdentifyArgs;
-pub use config::{fits_steady, Collinear, Config};
+pub use config::{fits_steady, unknown_parameter, Collinear, Config};
+pub use error::{IdentifyError, PredictError};
+pub use fit::{predict_mean, predict_point, predict_point_at};
 pub use result::{
     errors, AutoFix, Counts, DynFit, Errors, Estimate, Identification, Predictions, SteadyFit,
     TracePoint,
 };
 pub use transient::MIN_TRANSIENT_SIGNAL;
 
-use crate::log::{Log, ReadOptions};
-use anyhow::{bail, Context, Result};
+use magswarm_log::Log;
 use magswarm_model::Model;
 use prepare::{check_identifiable, prepare, Prepared};
 use result::errors_of;
@@ -61,15 +69,18 @@ use steady_fit::{bootstrap_step, steady_fit};
 use transient::{dynamics_step, transient_trace};
 
 /// Identify a model from parsed logs: the steps of the module docs, each in its function.
-pub fn identify(logs: &[Log], prior: &Model, cfg: &Config) -> Result<Identification> {
+pub fn identify(
+    logs: &[Log],
+    prior: &Model,
+    cfg: &Config,
+) -> Result<Identification, IdentifyError> {
     let t0 = Instant::now();
     let (free_st, free_dy) = cfg.resolve()?;
     for l in logs {
         if !l.has_radii() {
-            bail!(
-                "{}: no r1_mm, r2_mm columns: identify needs measured radii",
-                l.source
-            );
+            return Err(IdentifyError::NoRadii {
+                log: l.source.clone(),
+            });
         }
     }
     // 1. Sessions, visits, settled rows, points.
@@ -78,10 +89,7 @@ pub fn identify(logs: &[Log], prior: &Model, cfg: &Config) -> Result<Identificat
     let mut prep = prepare(&sessions, cfg.withhold_every);
     let counts = prep.counts;
     if counts.rows == counts.invalid {
-        bail!(
-            "no usable rows: {} row(s), none valid with radii",
-            counts.rows
-        );
+        return Err(IdentifyError::NoUsableRows { rows: counts.rows });
     }
     check_identifiable(&prep.points, &free_st, &counts)?;
     let pb = progress_bar(
@@ -122,9 +130,7 @@ pub fn identify(logs: &[Log], prior: &Model, cfg: &Config) -> Result<Identificat
         format!("{}-identified", prior.name)
     };
     model.provenance = provenance(&sources, &prep, &sfit, dynamics.as_ref(), prior, &train);
-    model
-        .validate()
-        .context("the identified model does not validate")?;
+    model.validate().map_err(IdentifyError::Invalid)?;
     Ok(Identification {
         model,
         prior: prior.clone(),
@@ -204,35 +210,4 @@ fn provenance(
         train.rmse[0],
         train.rmse[1]
     )
-}
-
-/// Run the command.
-pub fn run(a: &IdentifyArgs) -> Result<()> {
-    let cfg = Config::from_args(a)?;
-    let prior = match &a.model {
-        Some(p) => Model::load(p)?,
-        None => Model::paper(),
-    };
-    let mut logs = Vec::new();
-    for p in &a.log {
-        let l = Log::read_with(p, ReadOptions { lenient: a.lenient })?;
-        for s in &l.skipped {
-            eprintln!("identify: warning: {}: skipped {s}", l.source);
-        }
-        logs.push(l);
-    }
-    let id = identify(&logs, &prior, &cfg)?;
-    id.model
-        .save(&a.out)
-        .with_context(|| format!("cannot save {}", a.out.display()))?;
-    eprint!("{}", report::summary(&id));
-    if let Some(dir) = &a.report {
-        report::write(&id, dir)?;
-        eprintln!(
-            "identify: report written to {}",
-            dir.join("report.md").display()
-        );
-    }
-    eprintln!("identify: model written to {}", a.out.display());
-    Ok(())
 }

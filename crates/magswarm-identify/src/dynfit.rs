@@ -11,11 +11,11 @@
 use super::data::Session;
 use super::fit::{self, Covariance, Run};
 use super::params::{self, Free};
-use crate::optim;
 use crate::predict::{replay, InputRow};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use magswarm_fit::lm::{self, LevenbergMarquardt};
+use magswarm_fit::optim;
 use magswarm_model::Model;
-use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use nalgebra::{DMatrix, DVector};
 
 /// Integrator tolerance of the fit's replays (mm, relative): far below the noise.
 const FIT_RTOL: f64 = 1e-6;
@@ -90,42 +90,25 @@ impl DynProblem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for DynProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, u: &DVector<f64>) {
-        self.u.copy_from(u);
-        params::set_from_u(&mut self.model, self.free, u.as_slice());
+impl lm::Fit for DynProblem<'_> {
+    fn set(&mut self, u: &[f64]) {
+        self.u.copy_from_slice(u);
+        params::set_from_u(&mut self.model, self.free, u);
     }
-    fn params(&self) -> DVector<f64> {
-        self.u.clone()
+    fn residuals(&self) -> DVector<f64> {
+        DVector::from_vec(residuals(&self.model, self.data, self.sd))
     }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        Some(DVector::from_vec(residuals(
-            &self.model,
-            self.data,
-            self.sd,
-        )))
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
+    fn jacobian(&self) -> DMatrix<f64> {
         let base = residuals(&self.model, self.data, self.sd);
         let theta = self.theta();
         let chain = params::dthetas_du(self.free, self.u.as_slice());
         let mut m = self.model.clone();
-        Some(optim::forward_jacobian(
-            &base,
-            &theta,
-            &fd_steps(&theta),
-            &chain,
-            |c, v| {
-                params::set(&mut m, self.free[c].name(), v);
-                let r = residuals(&m, self.data, self.sd);
-                params::set(&mut m, self.free[c].name(), theta[c]);
-                r
-            },
-        ))
+        optim::forward_jacobian(&base, &theta, &fd_steps(&theta), &chain, |c, v| {
+            params::set(&mut m, self.free[c].name(), v);
+            let r = residuals(&m, self.data, self.sd);
+            params::set(&mut m, self.free[c].name(), theta[c]);
+            r
+        })
     }
 }
 
@@ -140,20 +123,23 @@ pub fn fit(
         free.len(),
         free.iter().map(|f| f.to_u(params::get(model, f.name()))),
     );
-    let mut prob = DynProblem {
+    let prob = DynProblem {
         model: model.clone(),
         free,
         data,
         sd,
         u: u0.clone(),
     };
-    prob.set_params(&u0);
-    let (prob, rep) = LevenbergMarquardt::new()
-        .with_ftol(1e-10)
-        .with_xtol(1e-10)
-        .with_gtol(1e-10)
-        .with_patience(50)
-        .minimize(prob);
+    let out = lm::minimize(
+        prob,
+        u0,
+        LevenbergMarquardt::new()
+            .with_ftol(1e-10)
+            .with_xtol(1e-10)
+            .with_gtol(1e-10)
+            .with_patience(50),
+    );
+    let prob = out.fit;
     let theta = prob.theta();
     let fitted = prob.model.clone();
     let base = residuals(&fitted, data, sd);
@@ -168,12 +154,12 @@ pub fn fit(
     });
     let cov = fit::diagnostics(jac, &base, None);
     let run = Run {
-        u: prob.u.clone(),
+        u: out.u,
         theta,
         cost,
-        converged: rep.termination.was_successful(),
-        termination: format!("{:?}", rep.termination),
-        evals: rep.number_of_evaluations,
+        converged: out.converged,
+        termination: out.termination,
+        evals: out.evals,
     };
     (fitted, run, cov)
 }

@@ -17,10 +17,10 @@
 
 use super::data::OpPoint;
 use super::params::{self, Free, Transform};
-use crate::optim;
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use magswarm_fit::lm::{self, LevenbergMarquardt};
+use magswarm_fit::optim;
 use magswarm_model::{effects, hz_to_rad_s, steady, Model};
-use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use nalgebra::{DMatrix, DVector};
 use rand::{RngExt, SeedableRng};
 
 /// A ridge (Tikhonov) term pulling chosen parameters toward prior values.
@@ -100,7 +100,7 @@ impl<'a> SteadyProblem<'a> {
             ridge,
             u: u.clone(),
         };
-        p.set_params(&u);
+        lm::Fit::set(&mut p, u.as_slice());
         p
     }
 
@@ -143,25 +143,17 @@ impl<'a> SteadyProblem<'a> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for SteadyProblem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, u: &DVector<f64>) {
-        self.u.copy_from(u);
-        params::set_from_u(&mut self.model, self.free, u.as_slice());
+impl lm::Fit for SteadyProblem<'_> {
+    fn set(&mut self, u: &[f64]) {
+        self.u.copy_from_slice(u);
+        params::set_from_u(&mut self.model, self.free, u);
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.u.clone()
+    fn residuals(&self) -> DVector<f64> {
+        self.res_of(&self.model, &self.theta())
     }
 
-    fn residuals(&self) -> Option<DVector<f64>> {
-        Some(self.res_of(&self.model, &self.theta()))
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
+    fn jacobian(&self) -> DMatrix<f64> {
         // Forward differences in theta, chain rule to u.
         let theta = self.theta();
         let base = self.res_of(&self.model, &theta);
@@ -174,21 +166,15 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for SteadyProblem<'_> {
         let chain = params::dthetas_du(self.free, self.u.as_slice());
         let mut m = self.model.clone();
         let mut th = theta.clone();
-        Some(optim::forward_jacobian(
-            base.as_slice(),
-            &theta,
-            &h,
-            &chain,
-            |c, v| {
-                let name = self.free[c].name();
-                params::set(&mut m, name, v);
-                th[c] = v;
-                let r = self.res_of(&m, &th);
-                params::set(&mut m, name, theta[c]);
-                th[c] = theta[c];
-                r.as_slice().to_vec()
-            },
-        ))
+        optim::forward_jacobian(base.as_slice(), &theta, &h, &chain, |c, v| {
+            let name = self.free[c].name();
+            params::set(&mut m, name, v);
+            th[c] = v;
+            let r = self.res_of(&m, &th);
+            params::set(&mut m, name, theta[c]);
+            th[c] = theta[c];
+            r.as_slice().to_vec()
+        })
     }
 }
 
@@ -218,27 +204,29 @@ pub fn run_lm(
     ridge: Option<&Ridge>,
     u0: DVector<f64>,
 ) -> Run {
-    let prob = SteadyProblem::new(model, free, points, idx, ridge, u0);
-    let (prob, rep) = LevenbergMarquardt::new()
-        .with_ftol(1e-12)
-        .with_xtol(1e-12)
-        .with_gtol(1e-12)
-        .with_patience(200)
-        .minimize(prob);
-    let theta = prob.theta();
-    let res = prob.residuals().unwrap_or_else(|| DVector::zeros(0));
-    let cost = res.norm_squared();
+    let prob = SteadyProblem::new(model, free, points, idx, ridge, u0.clone());
+    let out = lm::minimize(
+        prob,
+        u0,
+        LevenbergMarquardt::new()
+            .with_ftol(1e-12)
+            .with_xtol(1e-12)
+            .with_gtol(1e-12)
+            .with_patience(200),
+    );
+    let theta = out.fit.theta();
+    let cost = lm::Fit::residuals(&out.fit).norm_squared();
     Run {
-        u: prob.u.clone(),
+        u: out.u,
         theta,
         cost: if cost.is_finite() {
             cost
         } else {
             f64::INFINITY
         },
-        converged: rep.termination.was_successful(),
-        termination: format!("{:?}", rep.termination),
-        evals: rep.number_of_evaluations,
+        converged: out.converged,
+        termination: out.termination,
+        evals: out.evals,
     }
 }
 

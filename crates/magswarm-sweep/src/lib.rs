@@ -31,11 +31,9 @@ pub mod draws;
 
 use std::path::Path;
 
-pub use crate::cli::SweepArgs;
-
 use anyhow::{bail, Context, Result};
 use magswarm_control::{seed_scenario, Controller, PidConfig, Segment};
-use magswarm_model::{Model, Plant};
+use magswarm_model::{registry, Model, Plant};
 use rayon::prelude::*;
 use serde::Deserialize;
 
@@ -70,7 +68,7 @@ pub fn default_ranges(model: &Model) -> Uncertainty {
     Uncertainty::Ranges(
         spec.iter()
             .map(|&(n, rel)| {
-                let v = crate::identify::params::get(model, n);
+                let v = param(model, n);
                 (n.to_string(), v * (1.0 - rel), v * (1.0 + rel))
             })
             .collect(),
@@ -90,18 +88,31 @@ struct UncertaintyFile {
     cov: Option<Vec<Vec<f64>>>,
 }
 
+/// A parameter the uncertainty may name: an FMU parameter of the registry (what the FMU-based
+/// runs of the same study can set).
 fn check_name(name: &str, place: &str) -> Result<()> {
-    if magswarm_fmu::PARAMS.iter().any(|p| p.name == name) {
+    if registry::fmu_params().any(|p| p.name == name) {
         Ok(())
     } else {
         bail!(
             "{place}: unknown parameter {name:?} (one of: {})",
-            magswarm_fmu::PARAMS
-                .iter()
+            registry::fmu_params()
                 .map(|p| p.name)
                 .collect::<Vec<_>>()
                 .join(", ")
         )
+    }
+}
+
+/// A parameter's value in a model, by registry name (names are checked when read).
+fn param(model: &Model, name: &str) -> f64 {
+    registry::find(name).map_or(f64::NAN, |p| (p.get)(model))
+}
+
+/// Write a parameter, by registry name.
+fn set_param(model: &mut Model, name: &str, v: f64) {
+    if let Some(p) = registry::find(name) {
+        (p.set)(model, v);
     }
 }
 
@@ -143,10 +154,7 @@ impl Uncertainty {
                         m.len(),
                         names.len()
                     ),
-                    None => names
-                        .iter()
-                        .map(|n| crate::identify::params::get(model, n))
-                        .collect(),
+                    None => names.iter().map(|n| param(model, n)).collect(),
                 };
                 let chol = draws::cholesky(&cov).map_err(|e| anyhow::anyhow!("{place}: {e}"))?;
                 Ok(Uncertainty::Normal { names, mean, chol })
@@ -309,7 +317,7 @@ impl Sweep {
         let params = self.uncertainty.draw(seed, run);
         let mut m = self.model.clone();
         for (n, v) in self.uncertainty.names().iter().zip(&params) {
-            crate::identify::params::set(&mut m, n, *v);
+            set_param(&mut m, n, *v);
         }
         let outcome = m
             .validate()
@@ -387,71 +395,5 @@ pub fn write_csv(path: &Path, names: &[String], results: &[RunResult]) -> Result
         w.write_record(&row)?;
     }
     w.flush()?;
-    Ok(())
-}
-
-/// Run `magswarm sweep`.
-pub fn run(a: SweepArgs) -> Result<()> {
-    if a.runs == 0 {
-        bail!("--runs must be at least 1");
-    }
-    let (model, unc) = load(a.model.as_deref(), a.uncertainty.as_deref())?;
-    let sweep = Sweep::new(model, unc);
-    let names = sweep.uncertainty.names();
-    let bar = if a.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new(a.runs)
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  {per_sec}  eta {eta}")
-            .expect("valid template"),
-    );
-    let t0 = std::time::Instant::now();
-    let tick = || bar.inc(1);
-    let results = sweep.run_all(a.seed, a.runs, a.threads, &tick)?;
-    bar.finish_and_clear();
-    let secs = t0.elapsed().as_secs_f64();
-    write_csv(&a.out, &names, &results)?;
-    let failed = results.iter().filter(|r| !r.error.is_empty()).count();
-    let mut r1: Vec<f64> = results
-        .iter()
-        .map(|r| r.rmse_mm[0])
-        .filter(|v| v.is_finite())
-        .collect();
-    let mut r2: Vec<f64> = results
-        .iter()
-        .map(|r| r.rmse_mm[1])
-        .filter(|v| v.is_finite())
-        .collect();
-    r1.sort_by(f64::total_cmp);
-    r2.sort_by(f64::total_cmp);
-    let q = |v: &[f64], p: f64| {
-        if v.is_empty() {
-            f64::NAN
-        } else {
-            v[((v.len() - 1) as f64 * p).round() as usize]
-        }
-    };
-    println!(
-        "{} runs in {secs:.2} s ({:.1} runs/s, {} threads); {failed} failed; {}",
-        a.runs,
-        a.runs as f64 / secs,
-        if a.threads == 0 {
-            std::thread::available_parallelism().map_or(1, |n| n.get())
-        } else {
-            a.threads
-        },
-        a.out.display()
-    );
-    println!(
-        "rmse r1 [mm]: median {:.3}, 5-95 % {:.3}-{:.3}; rmse r2 [mm]: median {:.3}, 5-95 % {:.3}-{:.3}",
-        q(&r1, 0.5),
-        q(&r1, 0.05),
-        q(&r1, 0.95),
-        q(&r2, 0.5),
-        q(&r2, 0.05),
-        q(&r2, 0.95)
-    );
     Ok(())
 }

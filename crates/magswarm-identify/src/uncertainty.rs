@@ -5,7 +5,7 @@
 use super::data::OpPoint;
 use super::fit::{predict_mean, run_lm, Ridge};
 use super::params::{self, Free};
-use crate::optim;
+use magswarm_fit::optim;
 use magswarm_model::Model;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use rand::{RngExt, SeedableRng};

@@ -5,7 +5,7 @@ use magswarm_model::Model;
 
 use super::figures::{eval_mm, ClosedLoopPoint};
 use super::seed;
-use crate::optim::nelder_mead;
+use magswarm_fit::optim::nelder_mead;
 
 pub(super) fn closed_loop(model: &Model) -> Vec<ClosedLoopPoint> {
     let e = &model.envelope;

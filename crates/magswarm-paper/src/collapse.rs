@@ -7,15 +7,17 @@ use super::figures::{median, CollapseFigures};
 use super::seed;
 
 /// Collapse variables y_i = r_i S_i^alpha_i / C_i of noisy synthetic repeats on the seed grid.
-pub(super) struct CollapseData {
+pub struct CollapseData {
     /// (f, y1, y2) per repeat and grid point.
-    pub(super) samples: Vec<(f64, f64, f64)>,
+    pub samples: Vec<(f64, f64, f64)>,
     /// (f, y1, y2) of the noise-free model per grid point.
-    pub(super) exact: Vec<(f64, f64, f64)>,
-    pub(super) figures: CollapseFigures,
+    pub exact: Vec<(f64, f64, f64)>,
+    /// The figures computed from them.
+    pub figures: CollapseFigures,
 }
 
-pub(super) fn collapse(model: &Model) -> CollapseData {
+/// The collapse data of Fig. 5 for a model (seeded synthetic repeats: the same every run).
+pub fn collapse(model: &Model) -> CollapseData {
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
     let rng_seed = 20_251_122;
@@ -61,7 +63,7 @@ pub(super) fn collapse(model: &Model) -> CollapseData {
 }
 
 /// Group collapse samples by frequency: (f, y1s, y2s), in increasing f.
-pub(super) fn bins(samples: &[(f64, f64, f64)]) -> Vec<(f64, Vec<f64>, Vec<f64>)> {
+pub fn bins(samples: &[(f64, f64, f64)]) -> Vec<(f64, Vec<f64>, Vec<f64>)> {
     let mut out: Vec<(f64, Vec<f64>, Vec<f64>)> = Vec::new();
     for &(f, a, b) in samples {
         match out.iter_mut().find(|o| (o.0 - f).abs() < 1e-9) {

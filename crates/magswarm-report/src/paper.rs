@@ -2,13 +2,12 @@
 
 use anyhow::{Context, Result};
 use magswarm_model::{hz_to_rad_s, steady, Model};
+use magswarm_paper::{bins, collapse, eval_mm, fine_grid, mad, median, seed_axes, PaperFigures};
 use std::path::{Path, PathBuf};
 
-use super::collapse::{bins, collapse};
-use super::figures::{eval_mm, fine_grid, mad, median, seed_axes, PaperFigures};
 use crate::plot::{self, ErrorBar, ErrorSeries, Heatmap, Labels, Series, Style};
 
-/// Write the Fig. 4/5-style PNGs into `dir` for `model`, whose figures ([`super::paper_figures`])
+/// Write the Fig. 4/5-style PNGs into `dir` for `model`, whose figures ([`magswarm_paper::paper_figures`])
 /// are `figures`; returns the files written.
 pub fn write_plots(model: &Model, figures: &PaperFigures, dir: &Path) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

@@ -1,10 +1,10 @@
 //! The report's PNG figures: predicted against measured, residual maps over (z_m, f), the
 //! collapse onto Phi(f) and the transient trace, drawn from the [`Identification`] as computed.
 
-use super::super::data::{self, OpPoint};
-use super::super::Identification;
 use crate::plot::{self, ErrorBar, ErrorSeries, Heatmap, Labels, Panel, Series};
 use anyhow::Result;
+use magswarm_identify::data::{self, OpPoint};
+use magswarm_identify::Identification;
 use magswarm_model::{hz_to_rad_s, steady};
 use std::path::Path;
 

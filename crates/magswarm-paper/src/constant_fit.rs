@@ -12,10 +12,10 @@
 //! equilibrium search ([`magswarm_model::dynamics::equilibria`]), so the numbers are those a
 //! user of `Confinement::Constant` would see.
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use magswarm_fit::lm::{self, LevenbergMarquardt};
 use magswarm_model::dynamics::{equilibria, InputTerms};
 use magswarm_model::{hz_to_rad_s, Confinement, Model};
-use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
 /// One constant-gain fit and its errors over the envelope grid.
@@ -173,24 +173,16 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.x.copy_from(x);
+impl lm::Fit for Problem<'_> {
+    fn set(&mut self, x: &[f64]) {
+        self.x.copy_from_slice(x);
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.x.clone()
+    fn residuals(&self) -> DVector<f64> {
+        self.residuals_at(&self.x)
     }
 
-    fn residuals(&self) -> Option<DVector<f64>> {
-        Some(self.residuals_at(&self.x))
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
+    fn jacobian(&self) -> DMatrix<f64> {
         let n = self.x.len();
         let m = 2 * self.points.len();
         let mut j = DMatrix::zeros(m, n);
@@ -203,7 +195,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             let d = (self.residuals_at(&xp) - self.residuals_at(&xm)) / (2.0 * h);
             j.set_column(k, &d);
         }
-        Some(j)
+        j
     }
 }
 
@@ -308,19 +300,13 @@ fn lm(
         points: pts,
         free,
         base,
-        x: x0,
+        x: x0.clone(),
     };
-    let (problem, report) = LevenbergMarquardt::new()
-        .with_patience(200)
-        .minimize(problem);
+    let out = lm::minimize(problem, x0, LevenbergMarquardt::new().with_patience(200));
+    let problem = out.fit;
     let par = problem.params_of(&problem.x);
     let obj = problem.residuals_at(&problem.x).norm_squared();
-    (
-        par,
-        obj,
-        report.number_of_evaluations,
-        format!("{:?}", report.termination),
-    )
+    (par, obj, out.evals, out.termination)
 }
 
 /// Best of several LM runs (`starts`), evaluated on the grid.

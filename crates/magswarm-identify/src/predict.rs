@@ -19,9 +19,8 @@
 //! values move to `r1_meas_mm`, `r2_meas_mm`; `r1_ss_mm`, `r2_ss_mm` carry the steady map at
 //! the row's inputs (what the swarm would settle to).
 
-pub use crate::cli::PredictArgs;
-use crate::log::{Column, Log, LogRow, LogWriter};
-use anyhow::{Context, Result};
+use crate::PredictError;
+use magswarm_log::{Column, Layout, Log, LogRow};
 use magswarm_model::{hz_to_rad_s, Model, Plant};
 use std::collections::HashMap;
 
@@ -41,7 +40,7 @@ pub const REPLAY_RTOL: f64 = 1e-7;
 
 /// Replay one session: the observed radii \[mm\] (ODE (4) plus the model's effects) at each row (see the module docs for the semantics).
 /// `rtol` sets the integrator's relative and absolute (mm) tolerance.
-pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2]>> {
+pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2]>, PredictError> {
     let Some(first) = rows.first() else {
         return Ok(Vec::new());
     };
@@ -59,14 +58,20 @@ pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2
         // The model's input rule (the swarm plane outside the magnet), per row.
         plant
             .try_set_inputs(r.z_mm * 1e-3, hz_to_rad_s(r.f_hz))
-            .map_err(|e| anyhow::anyhow!("row at t = {} s: {e}", r.t))?;
+            .map_err(|err| PredictError::Input {
+                at: String::new(),
+                t: r.t,
+                err,
+            })?;
         let h = r.t - t_prev;
         if h > 0.0 {
-            step_robust(&mut plant, h).with_context(|| {
-                format!(
-                    "integrating ODE (4) from t = {t_prev} s to {} s at z_m {} mm, f {} Hz",
-                    r.t, r.z_mm, r.f_hz
-                )
+            step_robust(&mut plant, h).map_err(|err| PredictError::Integrate {
+                at: String::new(),
+                from: t_prev,
+                to: r.t,
+                z_mm: r.z_mm,
+                f_hz: r.f_hz,
+                err,
             })?;
         }
         t_prev = r.t;
@@ -77,21 +82,22 @@ pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2
 }
 
 /// Step, retrying in smaller pieces once if the integrator gives up.
-fn step_robust(plant: &mut Plant, h: f64) -> Result<()> {
+fn step_robust(plant: &mut Plant, h: f64) -> Result<(), magswarm_model::StepError> {
     if plant.step(h).is_ok() {
         return Ok(());
     }
     let n = 64;
     for _ in 0..n {
-        plant
-            .step(h / n as f64)
-            .map_err(|e| anyhow::anyhow!("integrator failed: {e:?}"))?;
+        plant.step(h / n as f64)?;
     }
     Ok(())
 }
 
+/// One row's replay: (the prediction, the observed steady map at its inputs) \[mm\].
+pub type RowPrediction = ([f64; 2], [f64; 2]);
+
 /// Predict every row of a log: (prediction, steady map) per row, in file order.
-pub fn predict_log(model: &Model, log: &Log) -> Result<Vec<([f64; 2], [f64; 2])>> {
+pub fn predict_log(model: &Model, log: &Log) -> Result<Vec<RowPrediction>, PredictError> {
     let mut by: HashMap<&str, Vec<usize>> = HashMap::new();
     for (i, r) in log.rows.iter().enumerate() {
         by.entry(r.session.as_str()).or_default().push(i);
@@ -106,12 +112,12 @@ pub fn predict_log(model: &Model, log: &Log) -> Result<Vec<([f64; 2], [f64; 2])>
                 f_hz: log.rows[i].f_hz,
             })
             .collect();
-        let pred = replay(model, &rows, REPLAY_RTOL).with_context(|| {
-            if name.is_empty() {
+        let pred = replay(model, &rows, REPLAY_RTOL).map_err(|e| {
+            e.within(&if name.is_empty() {
                 log.source.clone()
             } else {
                 format!("{} session {name:?}", log.source)
-            }
+            })
         })?;
         for (k, &i) in idx.iter().enumerate() {
             let sp = magswarm_model::effects::observed_steady(
@@ -126,17 +132,10 @@ pub fn predict_log(model: &Model, log: &Log) -> Result<Vec<([f64; 2], [f64; 2])>
     Ok(out)
 }
 
-/// Run the command.
-pub fn run(a: &PredictArgs) -> Result<()> {
-    let model = match &a.model {
-        Some(p) => Model::load(p)?,
-        None => Model::paper(),
-    };
-    let log = Log::read(&a.log)?;
-    if log.rows.is_empty() {
-        anyhow::bail!("{}: the log has no rows to replay", a.log.display());
-    }
-    let pred = predict_log(&model, &log)?;
+/// The output log of a replay: every input column kept, `r1_mm`, `r2_mm` the prediction,
+/// measured radii moved to `r1_meas_mm`, `r2_meas_mm`, and the steady map in `r1_ss_mm`,
+/// `r2_ss_mm` (the module docs). `pred` is [`predict_log`]'s.
+pub fn output_rows(log: &Log, pred: &[RowPrediction]) -> (Layout, Vec<LogRow>) {
     let had_radii = log.has_radii();
     let mut layout = log.layout.clone();
     let (r1m, r2m) = if had_radii {
@@ -151,34 +150,24 @@ pub fn run(a: &PredictArgs) -> Result<()> {
     };
     let r1s = layout.add_extra("r1_ss_mm");
     let r2s = layout.add_extra("r2_ss_mm");
-    let mut w = LogWriter::create(&a.out, layout.clone())
-        .with_context(|| format!("cannot write {}", a.out.display()))?;
-    for (row, (p, ss)) in log.rows.iter().zip(&pred) {
-        let mut o: LogRow = row.clone();
-        o.extra.resize(layout.extra_columns.len(), String::new());
-        let cell = |v: Option<f64>| v.map(|x| format!("{x}")).unwrap_or_default();
-        if let (Some(i1), Some(i2)) = (r1m, r2m) {
-            o.extra[i1] = cell(row.r1_mm);
-            o.extra[i2] = cell(row.r2_mm);
-        }
-        o.extra[r1s] = cell(Some(ss[0]));
-        o.extra[r2s] = cell(Some(ss[1]));
-        o.r1_mm = Some(p[0]);
-        o.r2_mm = Some(p[1]);
-        w.write_row(&o)
-            .with_context(|| format!("cannot write {}", a.out.display()))?;
-    }
-    w.finish()
-        .with_context(|| format!("cannot write {}", a.out.display()))?;
-    eprintln!(
-        "predict: {} rows of {} replayed through {} -> {}",
-        log.rows.len(),
-        a.log.display(),
-        a.model
-            .as_ref()
-            .map(|p| p.display().to_string())
-            .unwrap_or_else(|| "the paper model".into()),
-        a.out.display()
-    );
-    Ok(())
+    let rows = log
+        .rows
+        .iter()
+        .zip(pred)
+        .map(|(row, (p, ss))| {
+            let mut o: LogRow = row.clone();
+            o.extra.resize(layout.extra_columns.len(), String::new());
+            let cell = |v: Option<f64>| v.map(|x| format!("{x}")).unwrap_or_default();
+            if let (Some(i1), Some(i2)) = (r1m, r2m) {
+                o.extra[i1] = cell(row.r1_mm);
+                o.extra[i2] = cell(row.r2_mm);
+            }
+            o.extra[r1s] = cell(Some(ss[0]));
+            o.extra[r2s] = cell(Some(ss[1]));
+            o.r1_mm = Some(p[0]);
+            o.r2_mm = Some(p[1]);
+            o
+        })
+        .collect();
+    (layout, rows)
 }

@@ -215,7 +215,7 @@ pub fn fine_grid(model: &Model) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// Seed grid axes: z_m [mm], f [Hz].
-pub(super) fn seed_axes() -> (Vec<f64>, Vec<f64>) {
+pub fn seed_axes() -> (Vec<f64>, Vec<f64>) {
     let g = magswarm_model::seed_grid();
     let mut zs: Vec<f64> = g.iter().map(|p| p.0 * 1e3).collect();
     zs.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
@@ -225,7 +225,7 @@ pub(super) fn seed_axes() -> (Vec<f64>, Vec<f64>) {
     (zs, fs)
 }
 
-pub(super) fn eval_mm(model: &Model, z_mm: f64, f: f64) -> steady::SteadyPoint {
+pub fn eval_mm(model: &Model, z_mm: f64, f: f64) -> steady::SteadyPoint {
     steady::evaluate(model, z_mm * 1e-3, hz_to_rad_s(f))
 }
 
