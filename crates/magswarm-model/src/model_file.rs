@@ -172,8 +172,8 @@ impl Model {
             );
         }
         // Every numeric parameter: its physical range from the registry.
-        if let Err((path, message)) = crate::registry::check_all(self) {
-            c.fail(path, message);
+        if let Err((path, err)) = crate::registry::check_all(self) {
+            c.fail(path, err.to_string());
         }
         for (i, t) in self.effects.learned.iter().enumerate() {
             if let Err(e) = t.validate() {

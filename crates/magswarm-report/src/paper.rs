@@ -1,6 +1,6 @@
 //! The Fig. 4/5-style PNGs of `magswarm paper --plots`.
 
-use anyhow::{Context, Result};
+use crate::{ReportError, Result};
 use magswarm_model::{hz_to_rad_s, steady, Model};
 use magswarm_paper::{bins, collapse, eval_mm, fine_grid, mad, median, seed_axes, PaperFigures};
 use std::path::{Path, PathBuf};
@@ -10,7 +10,11 @@ use crate::plot::{self, ErrorBar, ErrorSeries, Heatmap, Labels, Series, Style};
 /// Write the Fig. 4/5-style PNGs into `dir` for `model`, whose figures ([`magswarm_paper::paper_figures`])
 /// are `figures`; returns the files written.
 pub fn write_plots(model: &Model, figures: &PaperFigures, dir: &Path) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|err| ReportError::Io {
+        what: "creating",
+        path: dir.to_path_buf(),
+        err,
+    })?;
     let mut written = Vec::new();
     let (zs, fs) = fine_grid(model);
     // pts[j][i]: f index j, z index i (heatmap layout).

@@ -31,7 +31,66 @@ pub mod draws;
 
 use std::path::Path;
 
-use anyhow::{bail, Context, Result};
+use magswarm_control::ConfigError;
+use magswarm_model::{ModelError, StepError};
+
+/// Why a sweep cannot run, or one of its runs failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SweepError {
+    /// The uncertainty description is not usable (the message names the file and field).
+    #[error("{0}")]
+    Uncertainty(String),
+    /// A file cannot be read or written.
+    #[error("{what}: {err}")]
+    Io {
+        /// What was done, with the path.
+        what: String,
+        /// The cause.
+        err: std::io::Error,
+    },
+    /// A file is not the JSON it should be.
+    #[error("{what}: {err}")]
+    Json {
+        /// Which file, with the path.
+        what: String,
+        /// The cause.
+        err: serde_json::Error,
+    },
+    /// The results file cannot be written.
+    #[error("cannot write {path}: {err}")]
+    Csv {
+        /// The path.
+        path: String,
+        /// The cause.
+        err: csv::Error,
+    },
+    /// A model (nominal, or with a run's draws) is not valid.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// The controller's configuration is not valid.
+    #[error(transparent)]
+    Controller(#[from] ConfigError),
+    /// The plant could not be integrated.
+    #[error("plant integration at t = {t:.2} s: {err}")]
+    Step {
+        /// Scenario time \[s\].
+        t: f64,
+        /// The integrator's reason.
+        err: StepError,
+    },
+    /// No thread pool.
+    #[error("cannot start the thread pool: {0}")]
+    ThreadPool(#[from] rayon::ThreadPoolBuildError),
+}
+
+type Result<T, E = SweepError> = std::result::Result<T, E>;
+
+/// Refuse an uncertainty description.
+macro_rules! bail {
+    ($($t:tt)*) => {
+        return Err(SweepError::Uncertainty(format!($($t)*)))
+    };
+}
 use magswarm_control::{seed_scenario, Controller, PidConfig, Segment};
 use magswarm_model::{registry, Model, Plant};
 use rayon::prelude::*;
@@ -120,8 +179,10 @@ impl Uncertainty {
     /// Read the uncertainty JSON (see the module documentation); `model` supplies a missing
     /// mean. `place` names the file in errors.
     pub fn from_json(v: serde_json::Value, model: &Model, place: &str) -> Result<Uncertainty> {
-        let f: UncertaintyFile =
-            serde_json::from_value(v).with_context(|| format!("{place}: uncertainty"))?;
+        let f: UncertaintyFile = serde_json::from_value(v).map_err(|err| SweepError::Json {
+            what: format!("{place}: uncertainty"),
+            err,
+        })?;
         match (f.ranges, f.names, f.cov) {
             (Some(r), None, None) => {
                 if r.is_empty() {
@@ -156,7 +217,8 @@ impl Uncertainty {
                     ),
                     None => names.iter().map(|n| param(model, n)).collect(),
                 };
-                let chol = draws::cholesky(&cov).map_err(|e| anyhow::anyhow!("{place}: {e}"))?;
+                let chol = draws::cholesky(&cov)
+                    .map_err(|e| SweepError::Uncertainty(format!("{place}: {e}")))?;
                 Ok(Uncertainty::Normal { names, mean, chol })
             }
             _ => bail!(
@@ -204,10 +266,15 @@ pub fn load(model: Option<&Path>, uncertainty: Option<&Path>) -> Result<(Model, 
     let (model, embedded) = match model {
         None => (Model::paper(), None),
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read --model {}", p.display()))?;
-            let mut v: serde_json::Value = serde_json::from_str(&text)
-                .with_context(|| format!("--model {}: not JSON", p.display()))?;
+            let text = std::fs::read_to_string(p).map_err(|err| SweepError::Io {
+                what: format!("cannot read --model {}", p.display()),
+                err,
+            })?;
+            let mut v: serde_json::Value =
+                serde_json::from_str(&text).map_err(|err| SweepError::Json {
+                    what: format!("--model {}: not JSON", p.display()),
+                    err,
+                })?;
             let unc = v.as_object_mut().and_then(|o| o.remove("uncertainty"));
             let m = Model::from_json_str(&v.to_string(), &p.display().to_string())?;
             (m, unc)
@@ -215,10 +282,14 @@ pub fn load(model: Option<&Path>, uncertainty: Option<&Path>) -> Result<(Model, 
     };
     let unc = match (uncertainty, embedded) {
         (Some(p), _) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read --uncertainty {}", p.display()))?;
-            let v = serde_json::from_str(&text)
-                .with_context(|| format!("--uncertainty {}: not JSON", p.display()))?;
+            let text = std::fs::read_to_string(p).map_err(|err| SweepError::Io {
+                what: format!("cannot read --uncertainty {}", p.display()),
+                err,
+            })?;
+            let v = serde_json::from_str(&text).map_err(|err| SweepError::Json {
+                what: format!("--uncertainty {}: not JSON", p.display()),
+                err,
+            })?;
             Uncertainty::from_json(v, &model, &p.display().to_string())?
         }
         (None, Some(v)) => Uncertainty::from_json(v, &model, "--model (uncertainty member)")?,
@@ -278,9 +349,10 @@ pub fn track(
             }
             let (z, w) = ctrl.step(y, sp);
             plant.set_inputs(z, w);
-            plant
-                .step(ts)
-                .with_context(|| format!("plant integration at t = {:.2} s", k as f64 * ts))?;
+            plant.step(ts).map_err(|err| SweepError::Step {
+                t: k as f64 * ts,
+                err,
+            })?;
             k += 1;
         }
     }
@@ -321,7 +393,7 @@ impl Sweep {
         }
         let outcome = m
             .validate()
-            .map_err(anyhow::Error::from)
+            .map_err(SweepError::from)
             .and_then(|_| track(&self.model, m, &self.pid, &self.segments));
         match outcome {
             Ok((rmse, tail)) => RunResult {
@@ -336,7 +408,7 @@ impl Sweep {
                 params,
                 rmse_mm: [f64::NAN; 2],
                 final_err_mm: f64::NAN,
-                error: format!("{e:#}"),
+                error: e.to_string(),
             },
         }
     }
@@ -352,8 +424,7 @@ impl Sweep {
     ) -> Result<Vec<RunResult>> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
-            .build()
-            .context("cannot start the thread pool")?;
+            .build()?;
         Ok(pool.install(|| {
             (0..runs)
                 .into_par_iter()
@@ -370,10 +441,16 @@ impl Sweep {
 /// Write the results: `run,rmse_r1_mm,rmse_r2_mm,final_err_mm,<parameters...>,error`.
 pub fn write_csv(path: &Path, names: &[String], results: &[RunResult]) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|err| SweepError::Io {
+            what: format!("cannot create {}", dir.display()),
+            err,
+        })?;
     }
-    let mut w =
-        csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))?;
+    let csv_err = |err| SweepError::Csv {
+        path: path.display().to_string(),
+        err,
+    };
+    let mut w = csv::Writer::from_path(path).map_err(csv_err)?;
     let mut header = vec![
         "run".to_string(),
         "rmse_r1_mm".into(),
@@ -382,7 +459,7 @@ pub fn write_csv(path: &Path, names: &[String], results: &[RunResult]) -> Result
     ];
     header.extend(names.iter().cloned());
     header.push("error".into());
-    w.write_record(&header)?;
+    w.write_record(&header).map_err(csv_err)?;
     for r in results {
         let mut row = vec![
             r.run.to_string(),
@@ -392,8 +469,11 @@ pub fn write_csv(path: &Path, names: &[String], results: &[RunResult]) -> Result
         ];
         row.extend(r.params.iter().map(|v| format!("{v:?}")));
         row.push(r.error.clone());
-        w.write_record(&row)?;
+        w.write_record(&row).map_err(csv_err)?;
     }
-    w.flush()?;
+    w.flush().map_err(|err| SweepError::Io {
+        what: format!("cannot write {}", path.display()),
+        err,
+    })?;
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! included); nothing is refitted or re-predicted here except the smooth Phi(f) curve.
 
 use crate::plot;
-use anyhow::{Context, Result};
+use crate::{ReportError, Result};
 use magswarm_identify::data;
 use magswarm_identify::{params, Collinear, Estimate, Identification};
 use std::fmt::Write as _;
@@ -109,7 +109,11 @@ fn cell(id: &Identification, name: &str) -> String {
 
 /// Write `dir/report.md` and the PNGs.
 pub fn write(id: &Identification, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    std::fs::create_dir_all(dir).map_err(|err| ReportError::Io {
+        what: "cannot create",
+        path: dir.to_path_buf(),
+        err,
+    })?;
     let figs = plots(id, dir)?;
     let mut md = String::new();
     let w = &mut md;
@@ -397,7 +401,10 @@ pub fn write(id: &Identification, dir: &Path) -> Result<()> {
     for (f, cap) in &figs {
         let _ = writeln!(w, "![{cap}]({f})\n\n*{cap}*\n");
     }
-    std::fs::write(dir.join("report.md"), md)
-        .with_context(|| format!("cannot write {}", dir.join("report.md").display()))?;
+    std::fs::write(dir.join("report.md"), md).map_err(|err| ReportError::Io {
+        what: "cannot write",
+        path: dir.join("report.md"),
+        err,
+    })?;
     Ok(())
 }

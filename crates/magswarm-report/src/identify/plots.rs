@@ -1,8 +1,9 @@
 //! The report's PNG figures: predicted against measured, residual maps over (z_m, f), the
 //! collapse onto Phi(f) and the transient trace, drawn from the [`Identification`] as computed.
 
-use crate::plot::{self, ErrorBar, ErrorSeries, Heatmap, Labels, Panel, Series};
-use anyhow::Result;
+use crate::plot::{self, ErrorBar, ErrorSeries, Labels, Panel, Series};
+use crate::residual::{levels, residual_map, ResidualMap};
+use crate::Result;
 use magswarm_identify::data::{self, OpPoint};
 use magswarm_identify::Identification;
 use magswarm_model::{hz_to_rad_s, steady};
@@ -61,52 +62,29 @@ pub(super) fn plots(id: &Identification, dir: &Path) -> Result<Vec<(String, Stri
         .zip(&id.pred.points)
         .chain(id.withheld.iter().zip(&id.pred.withheld))
         .collect();
-    let mut zs: Vec<f64> = all.iter().map(|p| p.0.z_mm).collect();
-    let mut fs: Vec<f64> = all.iter().map(|p| p.0.f_hz).collect();
-    for v in [&mut zs, &mut fs] {
-        v.sort_by(|a, b| a.total_cmp(b));
-        v.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
-    }
-    if zs.len() >= 2 && fs.len() >= 2 && zs.len() * fs.len() <= 40_000 {
-        let marks: Vec<(f64, f64)> = id.withheld.iter().map(|p| (p.z_mm, p.f_hz)).collect();
-        for a in 0..2 {
-            let mut vals = vec![vec![f64::NAN; zs.len()]; fs.len()];
-            let mut vmax: f64 = 0.0;
-            for &(p, pred) in &all {
-                let i = zs
-                    .iter()
-                    .position(|z| (z - p.z_mm).abs() < 1e-6)
-                    .unwrap_or(0);
-                let j = fs
-                    .iter()
-                    .position(|f| (f - p.f_hz).abs() < 1e-6)
-                    .unwrap_or(0);
-                let r = pred[a] - p.mean[a];
-                vals[j][i] = r;
-                vmax = vmax.max(r.abs());
-            }
-            let name = format!("residual_r{}.png", a + 1);
-            let title = format!("Residual r{} (model - measured mean) over (z_m, f)", a + 1);
-            plot::heatmap_diverging(
-                &dir.join(&name),
-                &Labels {
-                    title: &title,
-                    x: "z_m [mm]",
-                    y: "f [Hz]",
-                },
-                &Heatmap {
-                    xs: &zs,
-                    ys: &fs,
-                    values: &vals,
-                    colorbar_label: "residual [mm]",
-                    marks: &marks,
-                    marks_label: if marks.is_empty() { "" } else { "withheld" },
-                    range: Some((-vmax.max(1e-9), vmax.max(1e-9))),
-                },
-            )?;
+    let marks: Vec<(f64, f64)> = id.withheld.iter().map(|p| (p.z_mm, p.f_hz)).collect();
+    for a in 0..2 {
+        let points: Vec<(f64, f64, f64)> = all
+            .iter()
+            .map(|&(p, pred)| (p.z_mm, p.f_hz, pred[a] - p.mean[a]))
+            .collect();
+        let name = format!("residual_r{}.png", a + 1);
+        let title = format!("Residual r{} (model - measured mean) over (z_m, f)", a + 1);
+        let drawn = residual_map(
+            &dir.join(&name),
+            &ResidualMap {
+                title: &title,
+                points: &points,
+                marks: &marks,
+                marks_label: if marks.is_empty() { "" } else { "withheld" },
+                half_range: None,
+            },
+        )?;
+        if drawn {
             out.push((name, format!("Residual map of r{} over (z_m, f)", a + 1)));
         }
     }
+    let fs = levels(all.iter().map(|p| p.0.f_hz));
 
     // Collapse plot (Fig. 5): y_i = r_i S_i^alpha_i / C_i against f, median +- MAD per bin.
     let s = &m.steady;

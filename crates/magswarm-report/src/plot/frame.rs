@@ -1,7 +1,7 @@
 //! The drawing frame every plot shares: the PNG backend, fonts, padded axis ranges, the mesh
 //! with its labels, series and legend drawing, and errors that name the file.
 
-use anyhow::{anyhow, Context, Result};
+use crate::{ReportError, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -37,8 +37,8 @@ pub(super) fn padded(it: impl Iterator<Item = f64>, pad: f64) -> Option<(f64, f6
     Some((lo - p, hi + p))
 }
 
-pub(super) fn no_data(path: &Path) -> anyhow::Error {
-    anyhow!("{}: nothing to plot (no finite points)", path.display())
+pub(super) fn no_data(path: &Path) -> ReportError {
+    ReportError::NoData(path.to_path_buf())
 }
 
 pub(super) fn backend(
@@ -47,16 +47,23 @@ pub(super) fn backend(
 ) -> Result<DrawingArea<BitMapBackend<'_>, Shift>> {
     ensure_font();
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|err| ReportError::Io {
+            what: "creating",
+            path: dir.to_path_buf(),
+            err,
+        })?;
     }
     let root = BitMapBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+    ctx(root.fill(&WHITE), path)?;
     Ok(root)
 }
 
-/// Map plotters' drawing errors (not `Send`/`Sync`) into anyhow with the path.
+/// Map plotters' drawing errors (not `Send`/`Sync`) into a [`ReportError`] with the path.
 pub(super) fn ctx<T, E: std::fmt::Display>(r: std::result::Result<T, E>, path: &Path) -> Result<T> {
-    r.map_err(|e| anyhow!("drawing {}: {e}", path.display()))
+    r.map_err(|e| ReportError::Draw {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
 }
 
 pub(super) type Chart<'a, 'b> = ChartContext<

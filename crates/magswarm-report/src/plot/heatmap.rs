@@ -1,7 +1,7 @@
 //! Heatmaps: a filled colour map over a rectilinear grid, with colour bar, value range and
 //! optional marked points.
 
-use anyhow::{anyhow, Result};
+use crate::{ReportError, Result};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -59,10 +59,10 @@ pub(super) fn heatmap_cmap(
 ) -> Result<()> {
     let (nx, ny) = (map.xs.len(), map.ys.len());
     if nx == 0 || ny == 0 || map.values.len() != ny || map.values.iter().any(|r| r.len() != nx) {
-        return Err(anyhow!(
-            "{}: heatmap needs values[{ny}][{nx}] for {nx} x and {ny} y cells",
-            path.display()
-        ));
+        return Err(ReportError::Shape {
+            path: path.to_path_buf(),
+            message: format!("heatmap needs values[{ny}][{nx}] for {nx} x and {ny} y cells"),
+        });
     }
     let (vmin, vmax) = match map.range {
         Some(r) => r,

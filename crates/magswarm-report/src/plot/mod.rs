@@ -1,7 +1,7 @@
 //! Plots: a small, generic layer over `plotters` (bitmap backend, PNG files, bundled font).
 //!
-//! Every function writes one PNG and returns `anyhow::Result<()>` with the file's path in the
-//! error context. Nothing here knows about swarms: callers pass numbers and labels (put the
+//! Every function writes one PNG and returns a [`crate::Result`] whose error names the
+//! file. Nothing here knows about swarms: callers pass numbers and labels (put the
 //! units in the labels, e.g. `"z_m [mm]"`).
 //!
 //! - [`lines`]: line/point series with a legend;

@@ -1,7 +1,7 @@
 //! The x-y plots: line/point series, stacked time panels, points with error bars, and
 //! predicted against measured.
 
-use anyhow::Result;
+use crate::Result;
 use plotters::prelude::*;
 use std::path::Path;
 
