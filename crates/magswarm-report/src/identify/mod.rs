@@ -6,6 +6,7 @@ use crate::plot;
 use crate::{ReportError, Result};
 use magswarm_identify::data;
 use magswarm_identify::{params, Collinear, Estimate, Identification};
+use magswarm_model::registry;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -107,6 +108,46 @@ fn cell(id: &Identification, name: &str) -> String {
     }
 }
 
+/// The rows of the report's Table I, from the parameter registry (the fittable parameters of
+/// the steady map, in registry order): axis-specific pairs `X1`/`X2` or `X_1`/`X_2` as
+/// (label, name of r1's, name of r2's), then the global parameters as (name, unit).
+type TableI = (
+    Vec<(String, &'static str, &'static str)>,
+    Vec<(&'static str, &'static str)>,
+);
+
+fn table_i_rows() -> TableI {
+    let rows: Vec<&registry::Param> = registry::group(registry::Group::Steady)
+        .filter(|p| p.fit.is_some())
+        .collect();
+    let unit = |p: &registry::Param| p.unit.unwrap_or("-");
+    let mut pairs = Vec::new();
+    let mut globals = Vec::new();
+    let mut paired = std::collections::HashSet::new();
+    for p in &rows {
+        let Some(stem) = p.name.strip_suffix('1') else {
+            continue;
+        };
+        let second = format!("{stem}2");
+        if let Some(q) = rows.iter().find(|q| q.name == second) {
+            let label = if stem.ends_with('_') {
+                format!("{stem}i [{}]", unit(p))
+            } else {
+                format!("{stem},i [{}]", unit(p))
+            };
+            pairs.push((label, p.name, q.name));
+            paired.insert(p.name);
+            paired.insert(q.name);
+        }
+    }
+    for p in &rows {
+        if !paired.contains(p.name) {
+            globals.push((p.name, unit(p)));
+        }
+    }
+    (pairs, globals)
+}
+
 /// Write `dir/report.md` and the PNGs.
 pub fn write(id: &Identification, dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|err| ReportError::Io {
@@ -197,17 +238,13 @@ pub fn write(id: &Identification, dir: &Path) -> Result<()> {
 
     let _ = writeln!(w, "## Table I (identified, 95 % CI)\n");
     let _ = writeln!(w, "| Axis-specific parameters | r_1 | r_2 |\n|---|---|---|");
-    for (lab, a, b) in [
-        ("C_i [mm]", "C_1", "C_2"),
-        ("a_K,i [-]", "a_K1", "a_K2"),
-        ("alpha_i [-]", "alpha_1", "alpha_2"),
-        ("gamma_i [-]", "gamma_1", "gamma_2"),
-    ] {
+    let (pairs, globals) = table_i_rows();
+    for (lab, a, b) in &pairs {
         let _ = writeln!(w, "| {lab} | {} | {} |", cell(id, a), cell(id, b));
     }
     let _ = writeln!(w, "\n| Global parameters | value |\n|---|---|");
-    for n in ["s_0", "a_G", "rho", "N", "q", "a_P", "mu_P", "c_P", "q_P"] {
-        let _ = writeln!(w, "| {n} [-] | {} |", cell(id, n));
+    for (n, unit) in &globals {
+        let _ = writeln!(w, "| {n} [{unit}] | {} |", cell(id, n));
     }
     let _ = writeln!(w, "| f_ref [Hz] | {} (fixed) |", g(id.model.steady.f_ref));
     let _ = writeln!(w, "\n| Validation errors | r_1 | r_2 |\n|---|---|---|");
