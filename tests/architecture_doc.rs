@@ -194,6 +194,45 @@ fn no_source_cites_a_file_outside_the_repository() {
     assert!(citing.is_empty(), "sources citing {needle}: {citing:?}");
 }
 
+/// The docs describe what the project relies on in its own words (docs/interfaces.md): no
+/// page cites the external contracts file, by name or as "the CONTRACTS log".
+#[test]
+fn no_doc_cites_the_contracts_file() {
+    let mut pages = vec![root().join("README.md")];
+    for e in std::fs::read_dir(root().join("docs")).unwrap().flatten() {
+        if e.path().extension().is_some_and(|x| x == "md") {
+            pages.push(e.path());
+        }
+    }
+    let needle = ["CONTR", "ACTS"].concat();
+    let citing: Vec<String> = pages
+        .iter()
+        .filter(|p| std::fs::read_to_string(p).is_ok_and(|s| s.contains(&needle)))
+        .map(|p| p.display().to_string())
+        .collect();
+    assert!(citing.is_empty(), "docs citing {needle}: {citing:?}");
+    let interfaces = std::fs::read_to_string(root().join("docs/interfaces.md")).unwrap();
+    for name in [
+        "`magswarm`",
+        "`MagSwarm.fmu`",
+        "`magswarm-bridge`",
+        "`z_m`",
+        "`omega_m`",
+        "`r1_ss`",
+        "`model_file`",
+        "`t_s,z_m_mm,f_hz,r1_mm,r2_mm`",
+        "`magswarm-model/2`",
+        "`phase_lag`",
+        "`camera_bias`",
+        "`DIR/report.json`",
+    ] {
+        assert!(
+            interfaces.contains(name),
+            "docs/interfaces.md does not name {name}"
+        );
+    }
+}
+
 /// The source folder of a workspace crate by its library name (`magswarm_identify`), if the
 /// workspace has it.
 fn crate_src(lib: &str) -> Option<std::path::PathBuf> {
