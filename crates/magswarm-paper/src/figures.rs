@@ -214,7 +214,7 @@ pub fn fine_grid(model: &Model) -> (Vec<f64>, Vec<f64>) {
     (zs, fs)
 }
 
-/// Seed grid axes: z_m [mm], f [Hz].
+/// Seed grid axes: z_m \[mm\], f \[Hz\].
 pub fn seed_axes() -> (Vec<f64>, Vec<f64>) {
     let g = magswarm_model::seed_grid();
     let mut zs: Vec<f64> = g.iter().map(|p| p.0 * 1e3).collect();

@@ -1,7 +1,7 @@
 //! The seed's figures beside the model's (`magswarm paper`).
 //!
 //! [`paper_figures`] computes every figure the seed reports (Table I, Sec. III-C, Sec. III-D)
-//! from a [`Model`] on the seed's 50-point grid, the consistency of ODE (4) with the map over a
+//! from a [`Model`](magswarm_model::Model) on the seed's 50-point grid, the consistency of ODE (4) with the map over a
 //! fine envelope grid, and the best *constant*-gain fit of (4) (whether constant gains could
 //! stand in for the scheduled ones). The result is a plain serialisable struct
 //! ([`PaperFigures`]) so the CLI, the FMU tests and the docs all quote the same numbers;
