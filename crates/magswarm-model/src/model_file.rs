@@ -292,6 +292,20 @@ mod tests {
     }
 
     #[test]
+    fn load_or_paper_gives_the_file_or_the_paper_model() {
+        assert_eq!(Model::load_or_paper(None).unwrap(), Model::paper());
+        let dir = std::env::temp_dir().join(format!("magswarm-lop-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut m = Model::paper();
+        m.steady.C_1 = 8.25;
+        let p = dir.join("m.json");
+        m.save(&p).unwrap();
+        assert_eq!(Model::load_or_paper(Some(&p)).unwrap(), m);
+        let e = Model::load_or_paper(Some(&dir.join("missing.json"))).unwrap_err();
+        assert!(e.to_string().contains("missing.json"), "{e}");
+    }
+
+    #[test]
     fn save_and_load_file() {
         let dir = std::env::temp_dir().join(format!("magswarm-model-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

@@ -68,3 +68,44 @@ pub fn residual_map(path: &Path, map: &ResidualMap) -> Result<bool> {
     )?;
     Ok(true)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_merge_values_closer_than_a_micrometre() {
+        let lv = levels([8.5, 3.5, 8.5 + 1e-9, 13.5, 3.5].into_iter());
+        assert_eq!(lv, vec![3.5, 8.5, 13.5]);
+    }
+
+    #[test]
+    fn draws_a_grid_and_refuses_what_spans_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let pts = [
+            (3.5, 1.0, 0.2),
+            (8.5, 1.0, -0.4),
+            (3.5, 5.0, 0.1),
+            // (8.5, 5.0) missing: an empty cell, not a point moved to another cell.
+        ];
+        let path = dir.path().join("r.png");
+        let map = ResidualMap {
+            title: "Residual r1",
+            points: &pts,
+            marks: &[(8.5, 1.0)],
+            marks_label: "withheld",
+            half_range: None,
+        };
+        assert!(residual_map(&path, &map).unwrap());
+        assert!(std::fs::metadata(&path).unwrap().len() > 1000);
+        // One z_m level only: no grid, nothing drawn.
+        let line = [(3.5, 1.0, 0.2), (3.5, 5.0, 0.1)];
+        let path2 = dir.path().join("line.png");
+        let map2 = ResidualMap {
+            points: &line,
+            ..map
+        };
+        assert!(!residual_map(&path2, &map2).unwrap());
+        assert!(!path2.exists());
+    }
+}
