@@ -8,6 +8,7 @@ use crate::identify::{self, params, Collinear, Config};
 use crate::log::{Log, ReadOptions};
 use crate::model::Model;
 use anyhow::{bail, Context, Result};
+use std::io::IsTerminal;
 
 /// Arguments of `magswarm identify`.
 #[derive(Debug, Clone, clap::Args)]
@@ -125,8 +126,41 @@ impl IdentifyArgs {
         };
         c.dynamics = !a.no_dynamics;
         c.withhold_every = a.withhold_every;
-        c.progress = true;
         Ok(c)
+    }
+}
+
+/// A progress bar on stderr, drawn only when stderr is a terminal.
+struct Bar(indicatif::ProgressBar);
+
+impl Bar {
+    fn new(msg: &str) -> Bar {
+        if !std::io::stderr().is_terminal() {
+            return Bar(indicatif::ProgressBar::hidden());
+        }
+        let pb = indicatif::ProgressBar::new(0);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        pb.set_message(msg.to_string());
+        Bar(pb)
+    }
+}
+
+impl identify::Progress for Bar {
+    fn start(&self, total: u64) {
+        self.0.set_length(total);
+    }
+    fn inc(&self, n: u64) {
+        self.0.inc(n);
+    }
+    fn add_total(&self, n: u64) {
+        self.0.inc_length(n);
+    }
+    fn finish(&self) {
+        self.0.finish_and_clear();
     }
 }
 
@@ -142,7 +176,7 @@ pub fn run(a: &IdentifyArgs) -> Result<()> {
         }
         logs.push(l);
     }
-    let id = identify::identify(&logs, &prior, &cfg)?;
+    let id = identify::identify_with_progress(&logs, &prior, &cfg, &Bar::new("identify"))?;
     id.model
         .save(&a.out)
         .with_context(|| format!("cannot save {}", a.out.display()))?;

@@ -44,8 +44,6 @@ pub struct Config {
     pub dynamics: bool,
     /// Withhold every K-th point (0: none).
     pub withhold_every: usize,
-    /// Show a progress bar (only drawn on a terminal).
-    pub progress: bool,
 }
 
 impl Default for Config {
@@ -64,7 +62,6 @@ impl Default for Config {
             collinear: Collinear::Fix { cond_max: 1e8 },
             dynamics: true,
             withhold_every: 0,
-            progress: false,
         }
     }
 }

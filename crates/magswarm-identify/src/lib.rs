@@ -45,6 +45,7 @@ pub mod fit;
 pub mod params;
 pub mod predict;
 mod prepare;
+mod progress;
 mod result;
 mod steady_fit;
 mod transient;
@@ -53,6 +54,7 @@ mod uncertainty;
 pub use config::{fits_steady, unknown_parameter, Collinear, Config};
 pub use error::{IdentifyError, PredictError};
 pub use fit::{predict_mean, predict_point, predict_point_at};
+pub use progress::{Progress, Silent};
 pub use result::{
     errors, AutoFix, Counts, DynFit, Errors, Estimate, Identification, Predictions, SteadyFit,
     TracePoint,
@@ -63,7 +65,6 @@ use magswarm_log::Log;
 use magswarm_model::Model;
 use prepare::{check_identifiable, prepare, Prepared};
 use result::errors_of;
-use std::io::IsTerminal;
 use std::time::Instant;
 use steady_fit::{bootstrap_step, steady_fit};
 use transient::{dynamics_step, transient_trace};
@@ -73,6 +74,16 @@ pub fn identify(
     logs: &[Log],
     prior: &Model,
     cfg: &Config,
+) -> Result<Identification, IdentifyError> {
+    identify_with_progress(logs, prior, cfg, &Silent)
+}
+
+/// [`identify`], reporting its progress (LM starts and bootstrap replicates) to `progress`.
+pub fn identify_with_progress(
+    logs: &[Log],
+    prior: &Model,
+    cfg: &Config,
+    progress: &dyn Progress,
 ) -> Result<Identification, IdentifyError> {
     let t0 = Instant::now();
     let (free_st, free_dy) = cfg.resolve()?;
@@ -92,13 +103,10 @@ pub fn identify(
         return Err(IdentifyError::NoUsableRows { rows: counts.rows });
     }
     check_identifiable(&prep.points, &free_st, &counts)?;
-    let pb = progress_bar(
-        cfg.progress,
-        (cfg.starts + cfg.bootstrap) as u64,
-        "identify",
-    );
+    let pb = progress;
+    pb.start((cfg.starts + cfg.bootstrap) as u64);
     // 2-3. Steady fit with the collinearity policy.
-    let (mut model, mut sfit) = steady_fit(prior, free_st, &prep.points, cfg, &pb);
+    let (mut model, mut sfit) = steady_fit(prior, free_st, &prep.points, cfg, pb);
     // 4. Dynamics (and the settle split redone).
     let (dynamics, dynamics_note) = dynamics_step(
         &mut sessions,
@@ -108,14 +116,14 @@ pub fn identify(
         prior,
         &free_dy,
         cfg,
-        &pb,
+        pb,
     );
     let trace = dynamics
         .as_ref()
         .and_then(|_| transient_trace(&model, &sessions));
     // 5. Bootstrap.
-    bootstrap_step(&model, &mut sfit, &prep.points, prior, cfg, &pb);
-    pb.finish_and_clear();
+    bootstrap_step(&model, &mut sfit, &prep.points, prior, cfg, pb);
+    pb.finish();
     // 6. Figures of merit (from predictions computed once) and the model file's provenance.
     let pred = Predictions::of(&model, &prep.points, &prep.withheld);
     let train = errors_of(&pred.points, &prep.points);
@@ -150,21 +158,6 @@ pub fn identify(
         trace,
         pred,
     })
-}
-
-fn progress_bar(show: bool, len: u64, msg: &str) -> indicatif::ProgressBar {
-    if show && std::io::stderr().is_terminal() {
-        let pb = indicatif::ProgressBar::new(len);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                .progress_chars("=> "),
-        );
-        pb.set_message(msg.to_string());
-        pb
-    } else {
-        indicatif::ProgressBar::hidden()
-    }
 }
 
 /// The provenance line of an identified model.

@@ -7,6 +7,7 @@ use super::data::OpPoint;
 use super::fit::{self, Ridge, Run};
 use super::params::{self, Free};
 use super::result::{AutoFix, Estimate, SteadyFit};
+use crate::Progress;
 use magswarm_model::Model;
 
 /// Estimates of the free parameters of a fitted model, with 95 % intervals from the
@@ -42,7 +43,7 @@ pub(super) fn multi_start(
     points: &[OpPoint],
     ridge: Option<&Ridge>,
     cfg: &Config,
-    pb: &indicatif::ProgressBar,
+    pb: &dyn Progress,
 ) -> (Model, Vec<Run>) {
     let theta0: Vec<f64> = free.iter().map(|f| params::get(prior, f.name())).collect();
     let idx: Vec<usize> = (0..points.len()).collect();
@@ -86,7 +87,7 @@ pub(super) fn steady_fit(
     mut free: Vec<Free>,
     points: &[OpPoint],
     cfg: &Config,
-    pb: &indicatif::ProgressBar,
+    pb: &dyn Progress,
 ) -> (Model, SteadyFit) {
     let mut auto_fixed = Vec::new();
     let mut cov_initial = None;
@@ -120,7 +121,7 @@ pub(super) fn steady_fit(
                         value: params::get(prior, f.name()),
                         cond: cov.cond_scaled,
                     });
-                    pb.inc_length(cfg.starts as u64);
+                    pb.add_total(cfg.starts as u64);
                     continue;
                 }
             }
@@ -149,7 +150,7 @@ pub(super) fn bootstrap_step(
     points: &[OpPoint],
     prior: &Model,
     cfg: &Config,
-    pb: &indicatif::ProgressBar,
+    pb: &dyn Progress,
 ) {
     if cfg.bootstrap == 0 {
         return;

@@ -10,6 +10,7 @@ use super::params::{self, Free};
 use super::prepare::{check_identifiable, prepare, Prepared};
 use super::result::{DynFit, SteadyFit, TracePoint};
 use super::steady_fit::{estimates, steady_fit};
+use crate::Progress;
 use magswarm_model::Model;
 
 pub(super) fn rms_axes(res: &[f64], sd: [f64; 2]) -> [f64; 2] {
@@ -143,7 +144,7 @@ pub(super) fn dynamics_step(
     prior: &Model,
     free_dy: &[Free],
     cfg: &Config,
-    pb: &indicatif::ProgressBar,
+    pb: &dyn Progress,
 ) -> (Option<DynFit>, String) {
     let trans = dynfit::transients(sessions);
     if let Some(note) = dynamics_refusal(cfg, free_dy, model, &trans, &prep.weighting) {

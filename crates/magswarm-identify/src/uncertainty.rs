@@ -5,6 +5,7 @@
 use super::data::OpPoint;
 use super::fit::{predict_mean, run_lm, Ridge};
 use super::params::{self, Free};
+use crate::Progress;
 use magswarm_fit::optim;
 use magswarm_model::Model;
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
@@ -193,7 +194,7 @@ pub fn bootstrap(
     ridge: Option<&Ridge>,
     n: usize,
     seed: u64,
-    progress: &indicatif::ProgressBar,
+    progress: &dyn Progress,
 ) -> (Vec<BootStat>, usize) {
     let u_hat = DVector::from_iterator(
         free.len(),
