@@ -261,7 +261,6 @@ pub fn diagnose(
         starts: 4,
         bootstrap: 0,
         seed: cfg.seed,
-        progress: false,
         ..identify::Config::default()
     };
     // The baseline is the prior without effects: a prior that has some (an earlier run's

@@ -214,7 +214,7 @@ impl MagSwarm {
         let (z, w) = (self.z_m, self.omega);
         let o = self.plant().outputs();
         let sp = &o.steady;
-        // x - x is 0 for every finite x and NaN otherwise: one sum, no branches, on the path
+        // x * 0 is 0 for every finite x and NaN otherwise: one sum, no branches, on the path
         // of every input change; the names are only looked for when it fails.
         let probe = [
             o.r1,
@@ -228,7 +228,7 @@ impl MagSwarm {
             sp.field.k_xx,
             sp.field.k_yy,
         ];
-        if probe.iter().map(|x| x - x).sum::<f64>() == 0.0 {
+        if probe.iter().map(|x| x * 0.0).sum::<f64>() == 0.0 {
             return Ok(());
         }
         let all = [
@@ -356,7 +356,8 @@ impl FmuModel for MagSwarm {
         self.check_after_step()
     }
 
-    // Model Exchange: the states are r1, r2 of ODE (4) (the table's der_r1, der_r2 rows).
+    // Model Exchange: the states are r1_ode, r2_ode of ODE (4) and the formation mode
+    // (form_x/v per axis), the variables the table's derivative rows point at.
     const MODEL_EXCHANGE: bool = true;
 
     fn set_time(&mut self, time: f64) -> Result<(), ModelError> {
