@@ -482,7 +482,7 @@ fn main() -> Result<()> {
         "-".into(),
         "-".into(),
         "< 5 s".into(),
-        "pending: `magswarm diagnose` is not in main yet".into(),
+        "not here: `cargo run --release --example bench_diagnose`".into(),
     ]);
     std::fs::write("target/perf/table.md", &t.0)?;
     println!("\n(table also in target/perf/table.md)");
