@@ -171,3 +171,147 @@ impl<M: FmuModel> Instance<M> {
         }
     }
 }
+
+/// The importer's side of the FMU-state functions, the same in FMI 2.0 and 3.0: read and
+/// write its `FMUstate` variables and byte buffers (NULL refused, naming the argument as the
+/// shell's version spells it). The shells only convert their C types.
+impl<M: FmuModel> Instance<M> {
+    /// `argument {arg} must not be NULL`.
+    pub fn null_arg(&mut self, f: &'static str, arg: &str) -> Status {
+        self.fail(f, Status::Error, format!("argument {arg} must not be NULL"))
+    }
+
+    /// `GetFMUState(state)`: a new snapshot if `*state` is NULL, else overwrite it; the handle
+    /// is written to `*state`.
+    ///
+    /// # Safety
+    /// `state` is NULL or points to the importer's readable and writable state variable.
+    pub unsafe fn get_fmu_state_at(
+        &mut self,
+        f: &'static str,
+        state: *mut *mut c_void,
+        arg: &str,
+    ) -> Status {
+        if state.is_null() {
+            return self.null_arg(f, arg);
+        }
+        // SAFETY: non-NULL and the importer's variable (caller's contract).
+        let current = unsafe { *state };
+        match self.get_fmu_state(f, current) {
+            Ok(p) => {
+                // SAFETY: as above.
+                unsafe { *state = p };
+                Status::Ok
+            }
+            Err(s) => s,
+        }
+    }
+
+    /// `FreeFMUState(state)`: free `*state` and set it to NULL (NULL `*state` is a no-op).
+    ///
+    /// # Safety
+    /// As [`Instance::get_fmu_state_at`].
+    pub unsafe fn free_fmu_state_at(
+        &mut self,
+        f: &'static str,
+        state: *mut *mut c_void,
+        arg: &str,
+    ) -> Status {
+        if state.is_null() {
+            return self.null_arg(f, arg);
+        }
+        // SAFETY: non-NULL and the importer's variable (caller's contract).
+        let s = self.free_fmu_state(f, unsafe { *state });
+        if s == Status::Ok {
+            // SAFETY: as above.
+            unsafe { *state = std::ptr::null_mut() };
+        }
+        s
+    }
+
+    /// `SerializedFMUStateSize(state, size)`.
+    ///
+    /// # Safety
+    /// `size` is NULL or points to the importer's writable variable.
+    pub unsafe fn serialized_size_at(
+        &mut self,
+        f: &'static str,
+        state: *mut c_void,
+        size: *mut usize,
+    ) -> Status {
+        if size.is_null() {
+            return self.null_arg(f, "size");
+        }
+        match self.with_serialized(f, state, |_, b| b.len()) {
+            Ok(n) => {
+                // SAFETY: non-NULL (checked above), the importer's variable.
+                unsafe { *size = n };
+                Status::Ok
+            }
+            Err(s) => s,
+        }
+    }
+
+    /// `SerializeFMUState(state, buffer, size)`: `size` must be what `size_fn` (the version's
+    /// `SerializedFMUStateSize`) returned.
+    ///
+    /// # Safety
+    /// `buffer` is NULL or the importer's writable buffer of `size` bytes.
+    pub unsafe fn serialize_into(
+        &mut self,
+        f: &'static str,
+        state: *mut c_void,
+        buffer: *mut u8,
+        size: usize,
+        size_fn: &str,
+    ) -> Status {
+        let copy = |i: &mut Self, bytes: &[u8]| {
+            if size != bytes.len() {
+                let msg = format!(
+                    "size = {size} but the serialized state has {} bytes (see {size_fn})",
+                    bytes.len()
+                );
+                return i.fail(f, Status::Error, msg);
+            }
+            // SAFETY: the importer's buffer of `size` bytes (caller's contract), which is not
+            // the snapshot's cache it is copied from.
+            let Some(out) = (unsafe { crate::ffi::slice_mut(buffer, size) }) else {
+                return i.null_arg(f, "serializedState");
+            };
+            out.copy_from_slice(bytes);
+            Status::Ok
+        };
+        self.with_serialized(f, state, copy).unwrap_or_else(|s| s)
+    }
+
+    /// `DeserializeFMUState(bytes, size, state)`: always a new FMU state, written to `*state`
+    /// (the incoming value is not read: importers often pass it uninitialised).
+    ///
+    /// # Safety
+    /// `bytes` is NULL or the importer's buffer of `size` bytes; `state` as in
+    /// [`Instance::get_fmu_state_at`].
+    pub unsafe fn deserialize_at(
+        &mut self,
+        f: &'static str,
+        bytes: *const u8,
+        size: usize,
+        state: *mut *mut c_void,
+        arg: &str,
+    ) -> Status {
+        if state.is_null() {
+            return self.null_arg(f, arg);
+        }
+        // SAFETY: the importer's buffer of `size` bytes (caller's contract).
+        let Some(b) = (unsafe { crate::ffi::slice(bytes, size) }) else {
+            return self.null_arg(f, "serializedState");
+        };
+        match self.deserialize_fmu_state(f, b) {
+            Ok(p) => {
+                // SAFETY: non-NULL (checked above), the importer's variable.
+                unsafe { *state = p };
+                Status::Ok
+            }
+            Err(s) => s,
+        }
+    }
+}

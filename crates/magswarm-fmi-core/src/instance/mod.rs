@@ -300,6 +300,31 @@ impl<M: FmuModel> Instance<M> {
         self.magic = 0;
     }
 
+    /// `FreeInstance` of either version: free the instance behind `p` (NULL, or a pointer
+    /// that is not a live instance with this `magic`, is ignored), marking it dead first, with
+    /// no panic escaping.
+    ///
+    /// # Safety
+    /// `p` must be NULL or a handle this library's shell returned for model `M`, not used
+    /// by the importer after this call.
+    pub unsafe fn free_handle(p: *mut std::ffi::c_void, magic: u64) {
+        // SAFETY: the caller's contract is `from_handle`'s.
+        let Some(inst) = (unsafe { Self::from_handle(p, magic) }) else {
+            return;
+        };
+        let r = crate::barrier::barrier(|| {
+            // SAFETY: a live instance leaked from a Box at instantiation; after this call the
+            // importer never uses it again, so it is dropped exactly once.
+            unsafe {
+                (*inst).kill();
+                drop(Box::from_raw(inst));
+            }
+        });
+        if let Err(payload) = r {
+            crate::barrier::drop_payload(payload);
+        }
+    }
+
     /// Mode.
     pub fn mode(&self) -> Mode {
         self.shell.mode

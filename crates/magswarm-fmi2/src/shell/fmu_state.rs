@@ -4,7 +4,7 @@
 //! these functions only read and write the importer's variables.
 
 use magswarm_fmi_core::ffi::{slice, slice_mut};
-use magswarm_fmi_core::{FmuModel, Instance, Status};
+use magswarm_fmi_core::{FmuModel, Instance};
 
 use super::{entry, null_arg};
 use crate::abi::*;
@@ -20,24 +20,9 @@ pub unsafe fn fmi2_get_fmu_state<M: FmuModel>(
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
     let f = Func::GetFmuState;
-    let body = |i: &mut Instance<M>| {
-        if state.is_null() {
-            return null_arg(i, f, "FMUstate");
-        }
-        // SAFETY: `state` is non-NULL and points to the importer's fmi2FMUstate variable
-        // (caller's contract), readable and writable.
-        let current = unsafe { *state };
-        match i.get_fmu_state(f.name(), current) {
-            Ok(p) => {
-                // SAFETY: as above.
-                unsafe { *state = p };
-                Status::Ok
-            }
-            Err(s) => s,
-        }
-    };
-    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
-    // `entry` tells which before touching it.
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe { i.get_fmu_state_at(f.name(), state, "FMUstate") };
+    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
 
@@ -62,21 +47,9 @@ pub unsafe fn fmi2_free_fmu_state<M: FmuModel>(
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
     let f = Func::FreeFmuState;
-    let body = |i: &mut Instance<M>| {
-        if state.is_null() {
-            return null_arg(i, f, "FMUstate");
-        }
-        // SAFETY: `state` is non-NULL and points to the importer's fmi2FMUstate variable
-        // (caller's contract), readable and writable.
-        let s = i.free_fmu_state(f.name(), unsafe { *state });
-        if s == Status::Ok {
-            // SAFETY: as above.
-            unsafe { *state = std::ptr::null_mut() };
-        }
-        s
-    };
-    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
-    // `entry` tells which before touching it.
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe { i.free_fmu_state_at(f.name(), state, "FMUstate") };
+    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
 
@@ -90,22 +63,9 @@ pub unsafe fn fmi2_serialized_fmu_state_size<M: FmuModel>(
     size: *mut usize,
 ) -> Fmi2Status {
     let f = Func::SerializedFmuStateSize;
-    let body = |i: &mut Instance<M>| {
-        if size.is_null() {
-            return null_arg(i, f, "size");
-        }
-        match i.with_serialized(f.name(), state, |_, b| b.len()) {
-            Ok(n) => {
-                // SAFETY: non-NULL (checked above) and pointing to the importer's output
-                // variable (caller's contract).
-                unsafe { *size = n };
-                Status::Ok
-            }
-            Err(s) => s,
-        }
-    };
-    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
-    // `entry` tells which before touching it.
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe { i.serialized_size_at(f.name(), state, size) };
+    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
 
@@ -120,29 +80,12 @@ pub unsafe fn fmi2_serialize_fmu_state<M: FmuModel>(
     size: usize,
 ) -> Fmi2Status {
     let f = Func::SerializeFmuState;
-    let body = |i: &mut Instance<M>| {
-        let copy = |i: &mut Instance<M>, bytes: &[u8]| {
-            if size != bytes.len() {
-                let msg = format!(
-                    "size = {size} but the serialized state has {} bytes (see \
-                     fmi2SerializedFMUstateSize)",
-                    bytes.len()
-                );
-                return i.fail(f.name(), Status::Error, msg);
-            }
-            // SAFETY: the importer's buffer of `size` bytes (caller's contract), which is
-            // not the snapshot's cache it is copied from.
-            let Some(out) = (unsafe { slice_mut(serialized_state as *mut u8, size) }) else {
-                return null_arg(i, f, "serializedState");
-            };
-            out.copy_from_slice(bytes);
-            Status::Ok
-        };
-        i.with_serialized(f.name(), state, copy)
-            .unwrap_or_else(|s| s)
+    let buffer = serialized_state as *mut u8;
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe {
+        i.serialize_into(f.name(), state, buffer, size, "fmi2SerializedFMUstateSize")
     };
-    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
-    // `entry` tells which before touching it.
+    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
 
@@ -158,26 +101,11 @@ pub unsafe fn fmi2_deserialize_fmu_state<M: FmuModel>(
     state: *mut Fmi2FmuState,
 ) -> Fmi2Status {
     let f = Func::DeSerializeFmuState;
-    let body = |i: &mut Instance<M>| {
-        if state.is_null() {
-            return null_arg(i, f, "FMUstate");
-        }
-        // SAFETY: the importer's buffer of `size` bytes (caller's contract).
-        let Some(bytes) = (unsafe { slice(serialized_state as *const u8, size) }) else {
-            return null_arg(i, f, "serializedState");
-        };
-        match i.deserialize_fmu_state(f.name(), bytes) {
-            Ok(p) => {
-                // SAFETY: non-NULL (checked above) and pointing to the importer's
-                // fmi2FMUstate variable (caller's contract).
-                unsafe { *state = p };
-                Status::Ok
-            }
-            Err(s) => s,
-        }
-    };
-    // SAFETY: `c` is NULL or a component this library returned (caller's contract);
-    // `entry` tells which before touching it.
+    let bytes = serialized_state as *const u8;
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body =
+        |i: &mut Instance<M>| unsafe { i.deserialize_at(f.name(), bytes, size, state, "FMUstate") };
+    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
 

@@ -2,12 +2,11 @@
 
 use std::ffi::{c_char, c_int};
 
-use magswarm_fmi_core::barrier::{barrier, drop_payload};
 use magswarm_fmi_core::ffi::{opt_str, slice};
 use magswarm_fmi_core::log::{to_c_lossy, LogSink};
 use magswarm_fmi_core::{FmuModel, Instance, Interface, Refusal, Request, Status};
 
-use super::{entry, instance, null_arg, INSTANCE_MAGIC};
+use super::{entry, null_arg, INSTANCE_MAGIC};
 use crate::abi::*;
 use crate::state::{Func, Mode};
 
@@ -103,22 +102,9 @@ fn log_sink(callbacks: &Fmi2CallbackFunctions, instance_name: &str) -> Option<Lo
 /// # Safety
 /// `c` must be NULL or a pointer returned by [`fmi2_instantiate`] for the same `M`.
 pub unsafe fn fmi2_free_instance<M: FmuModel>(c: Fmi2Component) {
-    // SAFETY: `c` is NULL or a component of this library (caller's contract).
-    let Some(inst) = (unsafe { instance::<M>(c) }) else {
-        return;
-    };
-    let r = barrier(|| {
-        // SAFETY: `inst` is a live instance leaked from a Box by fmi2Instantiate; after
-        // fmi2FreeInstance the importer never uses it again, so it is dropped exactly once.
-        // The magic is cleared first so a stale use is refused on a best-effort basis.
-        unsafe {
-            (*inst).kill();
-            drop(Box::from_raw(inst));
-        }
-    });
-    if let Err(p) = r {
-        drop_payload(p);
-    }
+    // SAFETY: `c` is NULL or an instance of this library, not used after this (caller's
+    // contract).
+    unsafe { Instance::<M>::free_handle(c, INSTANCE_MAGIC) }
 }
 
 /// `fmi2SetDebugLogging`.

@@ -21,22 +21,8 @@ pub unsafe fn fmi3_get_fmu_state<M: FmuModel>(
     state: *mut Fmi3FmuState,
 ) -> Fmi3Status {
     let f = Func::GetFmuState;
-    let body = |i: &mut Instance<M>| {
-        if state.is_null() {
-            return null_arg(i, f, "FMUState");
-        }
-        // SAFETY: `state` is non-NULL and points to the importer's fmi3FMUState variable
-        // (caller's contract), readable and writable.
-        let current = unsafe { *state };
-        match i.get_fmu_state(f.name(), current) {
-            Ok(p) => {
-                // SAFETY: as above.
-                unsafe { *state = p };
-                Status::Ok
-            }
-            Err(s) => s,
-        }
-    };
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe { i.get_fmu_state_at(f.name(), state, "FMUState") };
     // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
@@ -60,19 +46,8 @@ pub unsafe fn fmi3_free_fmu_state<M: FmuModel>(
     state: *mut Fmi3FmuState,
 ) -> Fmi3Status {
     let f = Func::FreeFmuState;
-    let body = |i: &mut Instance<M>| {
-        if state.is_null() {
-            return null_arg(i, f, "FMUState");
-        }
-        // SAFETY: `state` is non-NULL and points to the importer's fmi3FMUState variable
-        // (caller's contract), readable and writable.
-        let s = i.free_fmu_state(f.name(), unsafe { *state });
-        if s == Status::Ok {
-            // SAFETY: as above.
-            unsafe { *state = std::ptr::null_mut() };
-        }
-        s
-    };
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe { i.free_fmu_state_at(f.name(), state, "FMUState") };
     // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
@@ -87,19 +62,8 @@ pub unsafe fn fmi3_serialized_fmu_state_size<M: FmuModel>(
     size: *mut usize,
 ) -> Fmi3Status {
     let f = Func::SerializedFmuStateSize;
-    let body = |i: &mut Instance<M>| {
-        if size.is_null() {
-            return null_arg(i, f, "size");
-        }
-        match i.with_serialized(f.name(), state, |_, b| b.len()) {
-            Ok(n) => {
-                // SAFETY: non-NULL (checked above), the importer's output variable.
-                unsafe { *size = n };
-                Status::Ok
-            }
-            Err(s) => s,
-        }
-    };
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe { i.serialized_size_at(f.name(), state, size) };
     // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }
@@ -115,25 +79,10 @@ pub unsafe fn fmi3_serialize_fmu_state<M: FmuModel>(
     size: usize,
 ) -> Fmi3Status {
     let f = Func::SerializeFmuState;
-    let body = |i: &mut Instance<M>| {
-        let copy = |i: &mut Instance<M>, bytes: &[u8]| {
-            if size != bytes.len() {
-                let msg = format!(
-                    "size = {size} but the serialized state has {} bytes (see \
-                     fmi3SerializedFMUStateSize)",
-                    bytes.len()
-                );
-                return i.fail(f.name(), Status::Error, msg);
-            }
-            // SAFETY: the importer's buffer of `size` bytes (caller's contract).
-            let Some(out) = (unsafe { slice_mut(serialized_state, size) }) else {
-                return null_arg(i, f, "serializedState");
-            };
-            out.copy_from_slice(bytes);
-            Status::Ok
-        };
-        i.with_serialized(f.name(), state, copy)
-            .unwrap_or_else(|s| s)
+    let buffer = serialized_state;
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body = |i: &mut Instance<M>| unsafe {
+        i.serialize_into(f.name(), state, buffer, size, "fmi3SerializedFMUStateSize")
     };
     // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
@@ -150,23 +99,10 @@ pub unsafe fn fmi3_deserialize_fmu_state<M: FmuModel>(
     state: *mut Fmi3FmuState,
 ) -> Fmi3Status {
     let f = Func::DeserializeFmuState;
-    let body = |i: &mut Instance<M>| {
-        if state.is_null() {
-            return null_arg(i, f, "FMUState");
-        }
-        // SAFETY: the importer's buffer of `size` bytes (caller's contract).
-        let Some(bytes) = (unsafe { slice(serialized_state, size) }) else {
-            return null_arg(i, f, "serializedState");
-        };
-        match i.deserialize_fmu_state(f.name(), bytes) {
-            Ok(p) => {
-                // SAFETY: non-NULL (checked above), the importer's fmi3FMUState variable.
-                unsafe { *state = p };
-                Status::Ok
-            }
-            Err(s) => s,
-        }
-    };
+    let bytes = serialized_state;
+    // SAFETY: the importer's pointers, as the core method requires (caller's contract).
+    let body =
+        |i: &mut Instance<M>| unsafe { i.deserialize_at(f.name(), bytes, size, state, "FMUState") };
     // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
     unsafe { entry::<M>(c, f, body) }
 }

@@ -3,12 +3,12 @@
 
 use std::ffi::c_char;
 
-use magswarm_fmi_core::barrier::{barrier, drop_payload};
+use magswarm_fmi_core::barrier::barrier;
 use magswarm_fmi_core::ffi::{opt_str, slice};
 use magswarm_fmi_core::log::{to_c_lossy, LogSink};
 use magswarm_fmi_core::{FmuModel, Instance, Interface, Refusal, Request, Status};
 
-use super::{entry, instance, null_arg, unsupported, INSTANCE_MAGIC};
+use super::{entry, null_arg, unsupported, INSTANCE_MAGIC};
 use crate::abi::*;
 use crate::state::{Func, Mode};
 
@@ -199,22 +199,9 @@ pub unsafe fn fmi3_instantiate_scheduled_execution<M: FmuModel>(
 /// # Safety
 /// `c` must be NULL or a pointer returned by this library's instantiation for the same `M`.
 pub unsafe fn fmi3_free_instance<M: FmuModel>(c: Fmi3Instance) {
-    // SAFETY: `c` is NULL or an instance of this library (caller's contract).
-    let Some(inst) = (unsafe { instance::<M>(c) }) else {
-        return;
-    };
-    let r = barrier(|| {
-        // SAFETY: `inst` is a live instance leaked from a Box at instantiation; after
-        // fmi3FreeInstance the importer never uses it again, so it is dropped exactly once.
-        // It is marked dead first so a stale use is refused on a best-effort basis.
-        unsafe {
-            (*inst).kill();
-            drop(Box::from_raw(inst));
-        }
-    });
-    if let Err(p) = r {
-        drop_payload(p);
-    }
+    // SAFETY: `c` is NULL or an instance of this library, not used after this (caller's
+    // contract).
+    unsafe { Instance::<M>::free_handle(c, INSTANCE_MAGIC) }
 }
 
 /// `fmi3SetDebugLogging`.

@@ -64,131 +64,61 @@ getter!(
     /// or `fmi3FreeInstance` on this instance.
     fmi3_get_string, Func::GetString, Fmi3String, get_string);
 
-/// `fmi3SetFloat64`: NaN and infinities are refused with `fmi3Error` naming the variable.
-///
-/// # Safety
-/// See the module documentation.
-pub unsafe fn fmi3_set_float64<M: FmuModel>(
-    c: Fmi3Instance,
-    vr: *const Fmi3ValueReference,
-    nvr: usize,
-    value: *const f64,
-    n_values: usize,
-) -> Fmi3Status {
-    let f = Func::SetFloat64;
-    let body = |i: &mut Instance<M>| {
-        if let Err(s) = check_n_values(i, f, nvr, n_values) {
-            return s;
+macro_rules! setter {
+    ($(#[$doc:meta])* $name:ident, $func:expr, $t:ty, |$i:ident, $vrs:ident, $vals:ident| $set:expr) => {
+        $(#[$doc])*
+        ///
+        /// # Safety
+        /// See the module documentation.
+        pub unsafe fn $name<M: FmuModel>(
+            c: Fmi3Instance,
+            vr: *const Fmi3ValueReference,
+            nvr: usize,
+            value: *const $t,
+            n_values: usize,
+        ) -> Fmi3Status {
+            let body = |$i: &mut Instance<M>| {
+                if let Err(s) = check_n_values($i, $func, nvr, n_values) {
+                    return s;
+                }
+                // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract).
+                let Some($vrs) = (unsafe { slice(vr, nvr) }) else { return null_arg($i, $func, "valueReferences") };
+                // SAFETY: as above.
+                let Some($vals) = (unsafe { slice(value, nvr) }) else { return null_arg($i, $func, "values") };
+                $set
+            };
+            // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
+            unsafe { entry::<M>(c, $func, body) }
         }
-        // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract).
-        let Some(vrs) = (unsafe { slice(vr, nvr) }) else {
-            return null_arg(i, f, "valueReferences");
-        };
-        // SAFETY: as above.
-        let Some(vals) = (unsafe { slice(value, nvr) }) else {
-            return null_arg(i, f, "values");
-        };
-        i.set_real(f.name(), vrs, vals)
     };
-    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
-    unsafe { entry::<M>(c, f, body) }
 }
 
-/// `fmi3SetInt32`.
-///
-/// # Safety
-/// See the module documentation.
-pub unsafe fn fmi3_set_int32<M: FmuModel>(
-    c: Fmi3Instance,
-    vr: *const Fmi3ValueReference,
-    nvr: usize,
-    value: *const i32,
-    n_values: usize,
-) -> Fmi3Status {
-    let f = Func::SetInt32;
-    let body = |i: &mut Instance<M>| {
-        if let Err(s) = check_n_values(i, f, nvr, n_values) {
-            return s;
-        }
-        // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract).
-        let Some(vrs) = (unsafe { slice(vr, nvr) }) else {
-            return null_arg(i, f, "valueReferences");
-        };
-        // SAFETY: as above.
-        let Some(vals) = (unsafe { slice(value, nvr) }) else {
-            return null_arg(i, f, "values");
-        };
-        i.set_integer(f.name(), vrs, vals)
-    };
-    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
-    unsafe { entry::<M>(c, f, body) }
-}
-
+setter!(
+    /// `fmi3SetFloat64`: NaN and infinities are refused with `fmi3Error` naming the variable.
+    fmi3_set_float64, Func::SetFloat64, f64,
+    |i, vrs, vals| i.set_real(Func::SetFloat64.name(), vrs, vals));
+setter!(
+    /// `fmi3SetInt32`.
+    fmi3_set_int32, Func::SetInt32, i32,
+    |i, vrs, vals| i.set_integer(Func::SetInt32.name(), vrs, vals));
+setter!(
 /// `fmi3SetBoolean` (any non-zero byte is true).
-///
-/// # Safety
-/// See the module documentation.
-pub unsafe fn fmi3_set_boolean<M: FmuModel>(
-    c: Fmi3Instance,
-    vr: *const Fmi3ValueReference,
-    nvr: usize,
-    value: *const Fmi3Boolean,
-    n_values: usize,
-) -> Fmi3Status {
-    let f = Func::SetBoolean;
-    let body = |i: &mut Instance<M>| {
-        if let Err(s) = check_n_values(i, f, nvr, n_values) {
-            return s;
-        }
-        // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract).
-        let Some(vrs) = (unsafe { slice(vr, nvr) }) else {
-            return null_arg(i, f, "valueReferences");
-        };
-        // SAFETY: as above.
-        let Some(vals) = (unsafe { slice(value, nvr) }) else {
-            return null_arg(i, f, "values");
-        };
-        let b: Vec<bool> = vals.iter().map(|&x| x != 0).collect();
-        i.set_boolean(f.name(), vrs, &b)
-    };
-    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
-    unsafe { entry::<M>(c, f, body) }
-}
-
-/// `fmi3SetString`.
-///
-/// # Safety
-/// See the module documentation; each non-NULL string must be NUL-terminated.
-pub unsafe fn fmi3_set_string<M: FmuModel>(
-    c: Fmi3Instance,
-    vr: *const Fmi3ValueReference,
-    nvr: usize,
-    value: *const Fmi3String,
-    n_values: usize,
-) -> Fmi3Status {
-    let f = Func::SetString;
-    let body = |i: &mut Instance<M>| {
-        if let Err(s) = check_n_values(i, f, nvr, n_values) {
-            return s;
-        }
-        // SAFETY: `vr` and `value` are arrays of `nvr` elements (caller's contract).
-        let Some(vrs) = (unsafe { slice(vr, nvr) }) else {
-            return null_arg(i, f, "valueReferences");
-        };
-        // SAFETY: as above.
-        let Some(vals) = (unsafe { slice(value, nvr) }) else {
-            return null_arg(i, f, "values");
-        };
-        let strs: Vec<Option<&str>> = vals
-            .iter()
-            // SAFETY: each value is NULL or a NUL-terminated string (caller's contract).
-            .map(|&p| unsafe { opt_str(p) }.and_then(|s| s.to_str().ok()))
-            .collect();
-        i.set_string(f.name(), vrs, &strs)
-    };
-    // SAFETY: `c` is NULL or an instance this library returned (caller's contract).
-    unsafe { entry::<M>(c, f, body) }
-}
+fmi3_set_boolean, Func::SetBoolean, Fmi3Boolean,
+|i, vrs, vals| {
+    let b: Vec<bool> = vals.iter().map(|&x| x != 0).collect();
+    i.set_boolean(Func::SetBoolean.name(), vrs, &b)
+});
+setter!(
+/// `fmi3SetString` (each non-NULL string must be NUL-terminated).
+fmi3_set_string, Func::SetString, Fmi3String,
+|i, vrs, vals| {
+    let strs: Vec<Option<&str>> = vals
+        .iter()
+        // SAFETY: each value is NULL or a NUL-terminated string (caller's contract).
+        .map(|&p| unsafe { opt_str(p) }.and_then(|s| s.to_str().ok()))
+        .collect();
+    i.set_string(Func::SetString.name(), vrs, &strs)
+});
 
 /// A getter or setter of a type no variable of this shell has: an empty call is fine,
 /// anything else names what the value reference really is.
