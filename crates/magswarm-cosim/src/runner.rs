@@ -125,8 +125,8 @@ pub struct RunSummary {
 /// by a controller closure (see the module documentation for the timing).
 ///
 /// ```no_run
-/// use magswarm::cosim::{CoSimConfig, CoSimulation, Command, Fmu};
-/// use magswarm::log::{Layout, LogWriter};
+/// use magswarm_cosim::{CoSimConfig, CoSimulation, Command, Fmu};
+/// use magswarm_log::{Layout, LogWriter};
 ///
 /// let fmu = Fmu::load("target/fmu/MagSwarm.fmu")?;
 /// let mut sim = CoSimulation::new(&fmu, &CoSimConfig { step_s: 0.01, ..Default::default() })?;

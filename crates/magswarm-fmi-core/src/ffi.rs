@@ -26,7 +26,7 @@ pub unsafe fn slice<'a, T>(p: *const T, n: usize) -> Option<&'a [T]> {
     }
 }
 
-/// As [`slice`], for an output array the FMU writes.
+/// As [`slice()`], for an output array the FMU writes.
 ///
 /// # Safety
 /// `p` is NULL or points to `n` writable elements not aliased during the call.

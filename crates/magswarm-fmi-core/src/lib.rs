@@ -19,7 +19,7 @@
 //! - [`instance`]: one instance and the logic of every call;
 //! - [`snapshot`]: FMU states in memory and as bytes;
 //! - [`barrier`]: the panic barrier; [`ffi`]: importer pointers to slices;
-//! - [`guid`]: the GUID / instantiation token both sides compute; [`uri`]: resource
+//! - [`mod@guid`]: the GUID / instantiation token both sides compute; [`uri`]: resource
 //!   locations to paths; [`units`]: ready-made unit definitions; [`jacobian`]: the
 //!   finite-difference fallback; [`unload`]: one-time tables freed at `dlclose`;
 //! - [`xml`]: the parts of `modelDescription.xml` that are the same in both versions.

@@ -180,7 +180,7 @@ pub struct Variable {
     pub initial: Option<Initial>,
     /// Human-readable description (may be empty).
     pub description: &'static str,
-    /// Unit (Real only); must be one of the model's [`UnitDefinition`]s.
+    /// Unit (Real only); must be one of the model's [`UnitDefinition`](crate::UnitDefinition)s.
     pub unit: Option<&'static str>,
     /// Display unit (Real only); must be a display unit of `unit`.
     pub display_unit: Option<&'static str>,

@@ -3,7 +3,7 @@
 //!
 //! Generated, never hand-written, so that names, value references, units and the
 //! ModelStructure always match what the binary does, and the GUID (a hash of the same
-//! table, see [`magswarm_fmi_core::guid`]) always matches the binary's check in
+//! table, see [`mod@magswarm_fmi_core::guid`]) always matches the binary's check in
 //! `fmi2Instantiate`.
 //!
 //! Choices that keep strict importers (FMI Library / libcosim, fmpy's `validate_fmu`) happy:

@@ -261,7 +261,7 @@ impl Plant {
         }
     }
 
-    /// d(continuous_derivatives)/d(z_m [m], omega [rad/s], continuous_state) at the current
+    /// d(continuous_derivatives)/d(z_m \[m\], omega \[rad/s\], continuous_state) at the current
     /// point, row per derivative: 8 columns (2 inputs, 6 states) in the units of
     /// [`Plant::continuous_derivatives`] per unit of the known.
     pub fn continuous_jacobian(&self) -> [[f64; 8]; 6] {

@@ -1,7 +1,7 @@
 //! The FMI 2.0 entry points (Co-Simulation and Model Exchange) as generic `unsafe fn`s over
 //! an [`FmuModel`].
 //!
-//! One entry point per function of the standard, all with the same prologue ([`entry`]),
+//! One entry point per function of the standard, all with the same prologue (`entry`),
 //! grouped as the standard groups them: [`lifecycle`], [`values`], [`fmu_state`] (FMU
 //! states and directional derivatives), [`cs`] (Co-Simulation), [`me`] (Model Exchange).
 //! Everything after the pointer checks is the version-neutral
