@@ -60,12 +60,31 @@ impl RawLoop {
     /// Instantiate `fmu`, initialise it with `inputs(0)` on the inputs `names[0..2]` and
     /// step by `h`; `names[2..4]` are the outputs read.
     pub fn new(fmu: &Fmu, names: [&str; 4], h: f64) -> Result<RawLoop> {
+        Self::with_start(fmu, names, h, &[], &[])
+    }
+
+    /// As [`RawLoop::new`], with these Real and Boolean start values set during
+    /// initialisation (e.g. MagSwarm's `settle_at_start = false`, `r1_start`, `r2_start`: a
+    /// swarm that starts away from the steady map, so that the first seconds are a transient).
+    pub fn with_start(
+        fmu: &Fmu,
+        names: [&str; 4],
+        h: f64,
+        reals: &[(&str, f64)],
+        bools: &[(&str, bool)],
+    ) -> Result<RawLoop> {
         let mut slave = fmu.instantiate("bench", SlaveOptions::default())?;
         let ins = [fmu.real_vr(names[0])?, fmu.real_vr(names[1])?];
         let outs = [fmu.real_vr(names[2])?, fmu.real_vr(names[3])?];
         slave.setup_experiment(None, 0.0, None)?;
         slave.enter_initialization_mode()?;
         slave.set_real(&ins, &inputs(0.0))?;
+        for &(n, x) in reals {
+            slave.set_real_by_name(n, x)?;
+        }
+        for &(n, b) in bools {
+            slave.set_boolean_by_name(n, b)?;
+        }
         slave.exit_initialization_mode()?;
         let fns = match slave.api() {
             Api::V2(b) => match (&b.fmi2DoStep, &b.fmi2SetReal, &b.fmi2GetReal) {
@@ -117,6 +136,26 @@ impl RawLoop {
                 })
                 .collect(),
         )
+    }
+
+    /// ns per call of `f`: the median over [`REPEATS`] fresh loops from `make` (built outside
+    /// the timing), each timed over its first `calls` calls with no warm-up: for states that
+    /// a long loop would leave (a transient).
+    pub fn time_fresh(
+        calls: usize,
+        mut make: impl FnMut() -> Result<RawLoop>,
+        f: fn(&mut RawLoop),
+    ) -> Result<f64> {
+        let mut v = Vec::with_capacity(REPEATS);
+        for _ in 0..REPEATS {
+            let mut r = make()?;
+            let t0 = Instant::now();
+            for _ in 0..calls {
+                f(&mut r);
+            }
+            v.push(t0.elapsed().as_nanos() as f64 / calls as f64);
+        }
+        Ok(median(v))
     }
 
     /// One `doStep` at the current inputs.
