@@ -26,125 +26,10 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use magswarm::control::{seed_scenario, sim, PidConfig};
-use magswarm::cosim::{Fmu, FmuSlave, SlaveOptions};
+use magswarm::cosim::{Fmu, SlaveOptions};
 use magswarm::model::dynamics::InputTerms;
 use magswarm::model::{Model, Plant};
-
-const REPEATS: usize = 7;
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.total_cmp(b));
-    v[v.len() / 2]
-}
-
-/// Inputs at time t: z_m 8.5 +- 2 mm, f 4 +- 1 Hz at 0.2 Hz (a new value every call).
-fn inputs(t: f64) -> [f64; 2] {
-    let s = (TAU * 0.2 * t).sin();
-    [8.5e-3 + 2.0e-3 * s, (4.0 + s) * TAU]
-}
-
-type DoStep = unsafe extern "C" fn(*mut std::ffi::c_void, f64, f64, i32) -> i32;
-type SetReal = unsafe extern "C" fn(*mut std::ffi::c_void, *const u32, usize, *const f64) -> i32;
-type GetReal = unsafe extern "C" fn(*mut std::ffi::c_void, *const u32, usize, *mut f64) -> i32;
-
-/// One initialised instance and its raw FMI function pointers.
-struct Raw {
-    slave: FmuSlave,
-    do_step: DoStep,
-    set_real: SetReal,
-    get_real: GetReal,
-    ins: [u32; 2],
-    outs: [u32; 2],
-    t: f64,
-    h: f64,
-}
-
-impl Raw {
-    fn new(fmu: &Fmu, names: [&str; 4], h: f64) -> Result<Raw> {
-        let mut slave = fmu.instantiate("bench", SlaveOptions::default())?;
-        let ins = [fmu.real_vr(names[0])?, fmu.real_vr(names[1])?];
-        let outs = [fmu.real_vr(names[2])?, fmu.real_vr(names[3])?];
-        slave.setup_experiment(None, 0.0, None)?;
-        slave.enter_initialization_mode()?;
-        slave.set_real(&ins, &inputs(0.0))?;
-        slave.exit_initialization_mode()?;
-        let b = slave.raw_binding();
-        let (Ok(d), Ok(s), Ok(g)) = (&b.fmi2DoStep, &b.fmi2SetReal, &b.fmi2GetReal) else {
-            bail!(
-                "{}: fmi2DoStep/SetReal/GetReal missing",
-                fmu.path().display()
-            );
-        };
-        // SAFETY: the binding's function types are these C signatures (fmi2Functions.h).
-        // (The source types are the bindings' generated ones, named by inference.)
-        #[allow(clippy::missing_transmute_annotations)]
-        let (do_step, set_real, get_real) = unsafe {
-            (
-                std::mem::transmute::<_, DoStep>(*d),
-                std::mem::transmute::<_, SetReal>(*s),
-                std::mem::transmute::<_, GetReal>(*g),
-            )
-        };
-        Ok(Raw {
-            slave,
-            do_step,
-            set_real,
-            get_real,
-            ins,
-            outs,
-            t: 0.0,
-            h,
-        })
-    }
-
-    /// ns per call of `f`, median of REPEATS loops of `calls` calls after a warm-up.
-    fn time(&mut self, calls: usize, f: fn(&mut Raw)) -> f64 {
-        for _ in 0..calls / 10 {
-            f(self);
-        }
-        median(
-            (0..REPEATS)
-                .map(|_| {
-                    let t0 = Instant::now();
-                    for _ in 0..calls {
-                        f(self);
-                    }
-                    t0.elapsed().as_nanos() as f64 / calls as f64
-                })
-                .collect(),
-        )
-    }
-
-    fn step(&mut self) {
-        let c = self.slave.component();
-        // SAFETY: a live, initialised instance of this library.
-        let s = unsafe { (self.do_step)(c, self.t, self.h, 1) };
-        assert!(s <= 1, "fmi2DoStep returned {s}");
-        self.t += self.h;
-    }
-
-    fn set_step(&mut self) {
-        let u = inputs(self.t);
-        let c = self.slave.component();
-        // SAFETY: live instance, arrays of 2.
-        let s = unsafe { (self.set_real)(c, self.ins.as_ptr(), 2, u.as_ptr()) };
-        assert!(s <= 1, "fmi2SetReal returned {s}");
-        self.step();
-    }
-
-    fn set_step_get(&mut self) {
-        self.set_step();
-        let mut y = [0.0; 2];
-        let c = self.slave.component();
-        // SAFETY: live instance, arrays of 2.
-        let s = unsafe { (self.get_real)(c, self.outs.as_ptr(), 2, y.as_mut_ptr()) };
-        assert!(s <= 1, "fmi2GetReal returned {s}");
-        black_box(y);
-    }
-}
-
-const MAGSWARM: [&str; 4] = ["z_m", "omega_m", "r1", "r2"];
-const EULER2: [&str; 4] = ["u1", "u2", "x1", "x2"];
+use magswarm::perf::raw::{inputs, median, RawLoop, EULER2, MAGSWARM, REPEATS};
 
 /// Largest |r_FMU - r_reference| [mm] over 5 s of formation at constant inputs (8.5 mm, 4 Hz)
 /// from r = (3, 4) mm, sampled at every communication point of step h; the reference is the
@@ -233,22 +118,26 @@ fn plant_ns(calls: usize, h: f64) -> (f64, f64) {
 }
 
 /// ns per Model Exchange right-hand side evaluation (what an importer's integrator calls per
-/// stage: set time, set states, get derivatives), through the shell's entry points in process
-/// (the exported C symbols forward to these same functions); at constant inputs and with
-/// `fmi2SetReal` of a new z_m before every evaluation.
+/// stage: set time, set all six states, get their derivatives), through the shell's entry
+/// points in process (the exported C symbols forward to these same functions); at constant
+/// inputs and with `fmi2SetReal` of a new z_m before every evaluation.
 fn me_rhs_ns(calls: usize) -> (f64, f64) {
     use magswarm_fmi2::abi::FMI2_MODEL_EXCHANGE;
     use magswarm_fmi2::host::Host;
-    let h = Host::<magswarm_fmu::MagSwarm>::instantiate_as("perf", None, FMI2_MODEL_EXCHANGE)
-        .expect("ME instance");
+    use magswarm_fmi2::shell;
+    type M = magswarm_fmu::MagSwarm;
+    const N: usize = magswarm_fmu::vr::STATES.len();
+    let h = Host::<M>::instantiate_as("perf", None, FMI2_MODEL_EXCHANGE).expect("ME instance");
     assert_eq!(h.init(0.0), magswarm_fmi2::Fmi2Status::Ok);
     h.new_discrete_states();
     h.enter_continuous_time_mode();
+    let (st, x0) = h.get_states(N);
+    assert_eq!(st, magswarm_fmi2::Fmi2Status::Ok);
     let c = h.component();
     let time = |change: bool| {
         let mut k = 0usize;
-        let mut x = [8.4e-3, 12.0e-3];
-        let mut dx = [0.0; 2];
+        let mut x: [f64; N] = x0.clone().try_into().expect("six states");
+        let mut dx = [0.0; N];
         median(
             (0..REPEATS)
                 .map(|_| {
@@ -256,28 +145,18 @@ fn me_rhs_ns(calls: usize) -> (f64, f64) {
                     for _ in 0..calls {
                         k += 1;
                         let t = k as f64 * 1e-4;
-                        // SAFETY: a live ME instance in continuous-time mode; arrays of 2.
+                        // SAFETY: a live ME instance in continuous-time mode; arrays of N.
                         unsafe {
                             if change {
                                 let z = inputs(t)[0];
-                                magswarm_fmi2::shell::fmi2_set_real::<magswarm_fmu::MagSwarm>(
-                                    c,
-                                    &magswarm_fmu::vr::Z_M,
-                                    1,
-                                    &z,
-                                );
+                                shell::fmi2_set_real::<M>(c, &magswarm_fmu::vr::Z_M, 1, &z);
                             }
-                            magswarm_fmi2::shell::fmi2_set_time::<magswarm_fmu::MagSwarm>(c, t);
-                            magswarm_fmi2::shell::fmi2_set_continuous_states::<
-                                magswarm_fmu::MagSwarm,
-                            >(c, x.as_ptr(), 2);
-                            magswarm_fmi2::shell::fmi2_get_derivatives::<magswarm_fmu::MagSwarm>(
-                                c,
-                                dx.as_mut_ptr(),
-                                2,
-                            );
+                            shell::fmi2_set_time::<M>(c, t);
+                            shell::fmi2_set_continuous_states::<M>(c, x.as_ptr(), N);
+                            let s = shell::fmi2_get_derivatives::<M>(c, dx.as_mut_ptr(), N);
+                            assert_eq!(s, magswarm_fmi2::Fmi2Status::Ok);
                         }
-                        x[0] += 1e-7 * black_box(dx[0]).signum();
+                        x[0] += 1e-9 * black_box(dx[0]).signum();
                     }
                     t0.elapsed().as_nanos() as f64 / calls as f64
                 })
@@ -370,6 +249,7 @@ fn verdict(ok: bool) -> String {
 
 fn main() -> Result<()> {
     let mut fmu_path = PathBuf::from("target/fmu/MagSwarm.fmu");
+    let mut fmu3_path = PathBuf::from("target/fmu/fmi3/MagSwarm.fmu");
     let mut calls = 20_000usize;
     let mut with_fmpy = true;
     let mut with_identify = true;
@@ -378,13 +258,14 @@ fn main() -> Result<()> {
     while let Some(a) = args.next() {
         match a.as_str() {
             "--fmu" => fmu_path = args.next().context("--fmu PATH")?.into(),
+            "--fmu3" => fmu3_path = args.next().context("--fmu3 PATH")?.into(),
             "--calls" => calls = args.next().context("--calls N")?.parse()?,
             "--python" => python = args.next().context("--python PATH")?.into(),
             "--no-fmpy" => with_fmpy = false,
             "--no-identify" => with_identify = false,
             "-h" | "--help" => {
                 println!(
-                    "perf_table [--fmu PATH] [--calls N] [--python PATH] [--no-fmpy] [--no-identify]"
+                    "perf_table [--fmu PATH] [--fmu3 PATH] [--calls N] [--python PATH] [--no-fmpy] [--no-identify]"
                 );
                 return Ok(());
             }
@@ -400,6 +281,16 @@ fn main() -> Result<()> {
     let fixture_path = magswarm::perf::fixture::build(Path::new("target/perf"))?;
     let fmu = Fmu::load(&fmu_path).context("load MagSwarm.fmu")?;
     let fixture = Fmu::load(&fixture_path).context("load Euler2.fmu")?;
+    // The FMI 3.0 plant, when packaged (`magswarm fmu --fmi-version 3`).
+    let fmu3 = if fmu3_path.is_file() {
+        Some(Fmu::load(&fmu3_path).context("load the FMI 3.0 MagSwarm.fmu")?)
+    } else {
+        eprintln!(
+            "{} not found: FMI 3.0 rows skipped (`cargo run --release -- fmu --fmi-version 3`)",
+            fmu3_path.display()
+        );
+        None
+    };
 
     let mut t = Table(String::new());
     println!(
@@ -419,12 +310,12 @@ fn main() -> Result<()> {
 
     // Interleave MagSwarm and the yardstick per figure so that load changes hit both.
     for h in [0.01, 0.001] {
-        let ms = Raw::new(&fmu, MAGSWARM, h)?.time(calls, Raw::step);
-        let fx = Raw::new(&fixture, EULER2, h)?.time(calls, Raw::step);
+        let ms = RawLoop::new(&fmu, MAGSWARM, h)?.time(calls, RawLoop::step);
+        let fx = RawLoop::new(&fixture, EULER2, h)?.time(calls, RawLoop::step);
         let err = global_error(&fmu, h)?;
         t.row(&[
             format!(
-                "doStep, constant inputs, h = {} ms (global error {err:.1e} mm)",
+                "doStep, constant inputs, swarm formed (at rest: the FMU replays its last step), h = {} ms (global error {err:.1e} mm)",
                 h * 1e3
             ),
             format!("{ms:.0} ns"),
@@ -434,11 +325,36 @@ fn main() -> Result<()> {
             verdict(ms / fx <= 3.0),
         ]);
     }
+    // The rows above run a formed swarm at constant inputs: after the first steps the state
+    // sits on a bitwise fixed point of the integrator and the FMU replays its last
+    // communication step (a memo). A doStep during a transient pays real integration steps:
+    // the same inputs, from r = (3, 4) mm, timed over the first 2 s of formation.
+    for h in [0.01, 0.001] {
+        let n = (2.0 / h) as usize;
+        let start = [("r1_start", 3.0e-3), ("r2_start", 4.0e-3)];
+        let ms = RawLoop::time_fresh(
+            n,
+            || RawLoop::with_start(&fmu, MAGSWARM, h, &start, &[("settle_at_start", false)]),
+            RawLoop::step,
+        )?;
+        let fx = RawLoop::time_fresh(n, || RawLoop::new(&fixture, EULER2, h), RawLoop::step)?;
+        t.row(&[
+            format!(
+                "doStep, constant inputs, during a transient (first 2 s of formation from r = (3, 4) mm, no memo hits), h = {} ms",
+                h * 1e3
+            ),
+            format!("{ms:.0} ns"),
+            format!("{fx:.1} ns"),
+            format!("{:.1}x", ms / fx),
+            "-".into(),
+            "reported".into(),
+        ]);
+    }
     for h in [0.01, 0.001] {
         let (rest, change) = plant_ns(calls, h);
         t.row(&[
             format!(
-                "in-process Plant::step (no FMI), h = {} ms: constant / input change",
+                "in-process Plant::step (no FMI), h = {} ms: constant inputs at rest (memo) / input change",
                 h * 1e3
             ),
             format!("{rest:.0} ns / {change:.0} ns"),
@@ -450,8 +366,8 @@ fn main() -> Result<()> {
     }
     let mut change = Vec::new();
     for h in [0.01, 0.001] {
-        let ms = Raw::new(&fmu, MAGSWARM, h)?.time(calls, Raw::set_step_get);
-        let fx = Raw::new(&fixture, EULER2, h)?.time(calls, Raw::set_step_get);
+        let ms = RawLoop::new(&fmu, MAGSWARM, h)?.time(calls, RawLoop::set_step_get);
+        let fx = RawLoop::new(&fixture, EULER2, h)?.time(calls, RawLoop::set_step_get);
         t.row(&[
             format!(
                 "set + doStep + get, input change every call, h = {} ms",
@@ -463,13 +379,32 @@ fn main() -> Result<()> {
             "<= 10x".into(),
             verdict(ms / fx <= 10.0),
         ]);
-        let set_step = Raw::new(&fmu, MAGSWARM, h)?.time(calls, Raw::set_step);
-        let step = Raw::new(&fmu, MAGSWARM, h)?.time(calls, Raw::step);
+        let set_step = RawLoop::new(&fmu, MAGSWARM, h)?.time(calls, RawLoop::set_step);
+        let step = RawLoop::new(&fmu, MAGSWARM, h)?.time(calls, RawLoop::step);
         change.push(set_step - step);
+    }
+    if let Some(fmu3) = &fmu3 {
+        for h in [0.01, 0.001] {
+            let c3 = RawLoop::new(fmu3, MAGSWARM, h)?.time(calls, RawLoop::step);
+            let cfx = RawLoop::new(&fixture, EULER2, h)?.time(calls, RawLoop::step);
+            let m3 = RawLoop::new(fmu3, MAGSWARM, h)?.time(calls, RawLoop::set_step_get);
+            let mfx = RawLoop::new(&fixture, EULER2, h)?.time(calls, RawLoop::set_step_get);
+            t.row(&[
+                format!(
+                    "FMI 3.0: doStep constant / set + doStep + get input change, h = {} ms",
+                    h * 1e3
+                ),
+                format!("{c3:.0} ns / {m3:.0} ns"),
+                format!("{cfx:.1} ns / {mfx:.1} ns"),
+                format!("{:.1}x / {:.1}x", c3 / cfx, m3 / mfx),
+                "<= 3x / <= 10x".into(),
+                verdict(c3 / cfx <= 3.0 && m3 / mfx <= 10.0),
+            ]);
+        }
     }
     let (rhs_const, rhs_change) = me_rhs_ns(calls);
     t.row(&[
-        "Model Exchange right-hand side (fmi2SetTime + fmi2SetContinuousStates + fmi2GetDerivatives, in process through the shell): constant inputs / input change every call".into(),
+        "Model Exchange right-hand side, 6 states (fmi2SetTime + fmi2SetContinuousStates + fmi2GetDerivatives, in process through the shell; the states move every call, no memo): constant inputs / input change every call".into(),
         format!("{rhs_const:.0} ns / {rhs_change:.0} ns"),
         "-".into(),
         "-".into(),
@@ -493,7 +428,10 @@ fn main() -> Result<()> {
         match fmpy(&python, &fmu_path, &fixture_path, calls) {
             Ok(v) => {
                 for (case, label) in [
-                    ("const", "fmpy: doStep, constant inputs"),
+                    (
+                        "const",
+                        "fmpy: doStep, constant inputs, swarm at rest (memo)",
+                    ),
                     ("closed", "fmpy: setReal + doStep + getReal, input change"),
                 ] {
                     for h in ["0.01", "0.001"] {
@@ -533,9 +471,20 @@ fn main() -> Result<()> {
         format!("{:.1} ms", via_fmu * 1e3),
         "-".into(),
         "-".into(),
-        "< 20 ms".into(),
-        verdict(via_fmu < 0.020),
+        "<= 20 ms".into(),
+        verdict(via_fmu <= 0.020),
     ]);
+    if let Some(fmu3) = &fmu3 {
+        let (via_fmu3, _, _) = tracking(fmu3)?;
+        t.row(&[
+            "same, FMI 3.0 FMU".into(),
+            format!("{:.1} ms", via_fmu3 * 1e3),
+            "-".into(),
+            "-".into(),
+            "<= 20 ms".into(),
+            verdict(via_fmu3 <= 0.020),
+        ]);
+    }
     t.row(&[
         "same, in-process plant (magswarm_control::sim::closed_loop)".into(),
         format!("{:.1} ms", in_proc * 1e3),
@@ -561,7 +510,7 @@ fn main() -> Result<()> {
         "-".into(),
         "-".into(),
         "< 5 s".into(),
-        "pending: `magswarm diagnose` is not in main yet".into(),
+        "not here: `cargo run --release --example bench_diagnose`".into(),
     ]);
     std::fs::write("target/perf/table.md", &t.0)?;
     println!("\n(table also in target/perf/table.md)");

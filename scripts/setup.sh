@@ -8,12 +8,16 @@
 # - a Python venv at .venv (created only if missing or broken) with requirements.txt installed;
 #   pip runs only when requirements.txt changed since the last successful install (stamp file),
 #   or when a required module is missing;
-# - optional extras (requirements-optional.txt: matplotlib) tried once per change, never fatal.
+# - optional extras (requirements-optional.txt: matplotlib) tried once per change, never fatal;
+# - fmi-sim 0.7 (rust-fmi's FMI 2.0/3.0 simulator, the second FMI 3.0 importer the tests use),
+#   `cargo install`ed into $CARGO_HOME/bin only when that exact version is not there yet
+#   (about 3-5 min of compilation once per machine, arrow included; then a version check).
 #
 # Works without a TTY and under CI=true. Environment knobs:
 #   MAGSWARM_PYTHON   interpreter used to create the venv (default: python3.11, else python3)
 #   MAGSWARM_VENV     venv directory (default: <repo>/.venv)
 #   MAGSWARM_SKIP_APT=1  skip the apt step (e.g. on a non-Debian machine that already has libclang)
+#   MAGSWARM_SKIP_FMI_SIM=1  do not install fmi-sim (its tests then skip, or fail under CI)
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -151,6 +155,21 @@ if [ -f "$REQ_OPT" ]; then
         # Stamp either way: do not retry a failing optional install on every run.
         echo "$owant" > "$OSTAMP"
     fi
+fi
+
+# ---------------------------------------------------------------- fmi-sim
+FMI_SIM_VERSION=0.7.0
+FMI_SIM="${CARGO_HOME:-$HOME/.cargo}/bin/fmi-sim"
+if [ "${MAGSWARM_SKIP_FMI_SIM:-0}" = 1 ]; then
+    say "fmi-sim: skipped (MAGSWARM_SKIP_FMI_SIM=1)"
+elif [ -x "$FMI_SIM" ] && { "$FMI_SIM" --version 2>&1 || true; } | grep -q "fmi-sim $FMI_SIM_VERSION"; then
+    say "fmi-sim $FMI_SIM_VERSION present ($FMI_SIM)"
+else
+    say "cargo install fmi-sim --version $FMI_SIM_VERSION --locked (once per machine, a few minutes)"
+    t0=$SECONDS
+    cargo install fmi-sim --version "$FMI_SIM_VERSION" --locked --quiet \
+        || die "cargo install fmi-sim failed"
+    say "fmi-sim installed in $((SECONDS - t0)) s"
 fi
 
 say "ok ($("$VPY" -c 'import fmpy, numpy, libcosimpy.__about__ as a; print(f"fmpy {fmpy.__version__}, numpy {numpy.__version__}, libcosimpy {a.__version__}")' 2>/dev/null || echo "venv ready"))"

@@ -7,7 +7,8 @@
 #    then the lint gates: cargo fmt --check, clippy -D warnings (workspace lints in Cargo.toml),
 #    rustdoc with warnings denied
 # 2. cargo build --release --workspace
-# 3. target/release/magswarm fmu (packages target/fmu/MagSwarm.fmu, used by the tests below)
+# 3. target/release/magswarm fmu (packages target/fmu/MagSwarm.fmu, used by the tests below),
+#    and the FMI 3.0 plant and both controller FMUs (target/fmu/fmi3/, target/fmu/MagSwarmPID.fmu)
 # 4. cargo nextest run --workspace --release (cargo test when nextest is absent) + doc tests
 # 5. .venv/bin/python -m pytest tests/python
 #
@@ -58,6 +59,15 @@ package_fmu() {
     ls -l "$FMU"
 }
 step "package the FMU (target/release/magswarm fmu -> target/fmu/MagSwarm.fmu)" package_fmu
+
+package_more() {
+    local args
+    for args in "--fmi-version 3" "--pid" "--pid --fmi-version 3"; do
+        # shellcheck disable=SC2086
+        target/release/magswarm fmu --no-build $args || return 1
+    done
+}
+step "package the FMI 3.0 FMU and the controller FMUs (target/fmu/fmi3/, target/fmu/MagSwarmPID.fmu)" package_more
 
 if [ "${MAGSWARM_NO_NEXTEST:-0}" != 1 ] && cargo nextest --version >/dev/null 2>&1; then
     step "cargo nextest run --workspace --release" \

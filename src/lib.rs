@@ -14,8 +14,13 @@
 //! - [`sweep`] (`magswarm-sweep`): Monte Carlo of the seed's tracking scenario;
 //! - [`plot`] and [`report`] (`magswarm-report`): every plot and report.
 //!
-//! The modules still in this package are `diagnose`, `lab`, `cosim` (the FMU importer),
-//! `perf`, `packaging`, `control_cli` and `outputs`.
+//! - [`cosim`] (`magswarm-cosim`): the FMU importer (FMI 2.0 and 3.0), as external tools run
+//!   FMUs; the FMUs themselves are `magswarm-fmu` and `magswarm-pid-fmu` behind the FMI 2.0
+//!   and 3.0 shells of `magswarm-fmi`.
+//!
+//! - [`packaging`] (`magswarm-packaging`): what goes into the `.fmu` archives.
+//!
+//! The modules still in this package are `diagnose`, `lab`, `perf` and `outputs`.
 
 pub use magswarm_control as control;
 pub use magswarm_fit::{lm, optim};
@@ -30,10 +35,11 @@ pub use magswarm_report::plot;
 pub use magswarm_sweep as sweep;
 
 pub mod cli;
-pub mod control_cli;
-pub mod cosim;
+/// The importer side (crate `magswarm-cosim`): run packaged FMUs as external tools do.
+pub use magswarm_cosim as cosim;
 pub mod diagnose;
 pub mod lab;
 pub mod outputs;
-pub mod packaging;
+/// The `.fmu` archives (crate `magswarm-packaging`).
+pub use magswarm_packaging as packaging;
 pub mod perf;

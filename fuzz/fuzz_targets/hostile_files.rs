@@ -4,8 +4,8 @@
 //! as a payload sealed in a valid frame, so the fuzzer reaches the CBOR decoding and the
 //! models' own validation behind the checksum.
 #![no_main]
-use magswarm_fmi2::host::Host;
-use magswarm_fmi2::{guid::guid_u128, snapshot, FmuModel};
+use magswarm_fmi::fmi2::host::Host;
+use magswarm_fmi::fmi2::{guid::guid_u128, snapshot, FmuModel};
 
 /// `payload` in a genuine frame of model `M` (right GUID, state version and CRC).
 fn sealed<M: FmuModel>(payload: &[u8]) -> Vec<u8> {

@@ -1,5 +1,5 @@
 //! The fuzz driver: a (buggy) importer that turns fuzz bytes into a sequence of FMI 2.0 calls
-//! on one model, through the shell's C entry points ([`magswarm_fmi2::host::Host`]), and
+//! on one model, through the shell's C entry points ([`magswarm_fmi::fmi2::host::Host`]), and
 //! checks the invariants after every call:
 //! - no crash, no abort, no panic across the boundary (the process would die);
 //! - no panic *inside* either: the panic barrier is the last line, never the check, so a
@@ -12,11 +12,14 @@
 //! One bit of the first byte instantiates Model Exchange instead of Co-Simulation, and the
 //! op codes 18-23 are the Model Exchange calls, so both interfaces share one driver.
 
+pub mod fmi3;
 pub mod planted;
 
-use magswarm_fmi2::abi::Fmi2FmuState;
-use magswarm_fmi2::host::Host;
-use magswarm_fmi2::{Fmi2Status, FmuModel, VarType};
+pub use fmi3::drive3;
+
+use magswarm_fmi::fmi2::abi::Fmi2FmuState;
+use magswarm_fmi::fmi2::host::Host;
+use magswarm_fmi::fmi2::{Fmi2Status, FmuModel, VarType};
 
 /// Reads the fuzz input as a stream of choices; zeros when exhausted.
 pub struct Bytes<'a> {
@@ -101,7 +104,7 @@ fn assert_no_panic<M: FmuModel>(h: &Host<M>, what: &str) {
 }
 
 /// A value reference: mostly one of the model's variables of type `ty`, sometimes any.
-fn vr_of<M: FmuModel>(b: &mut Bytes<'_>, ty: VarType) -> u32 {
+pub fn vr_of<M: FmuModel>(b: &mut Bytes<'_>, ty: VarType) -> u32 {
     let vars: Vec<u32> = M::model_info()
         .variables
         .iter()
@@ -123,9 +126,9 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
     // Bit 2 of the first byte: instantiate as Model Exchange (refused, with a message, by
     // Co-Simulation-only models; then nothing more happens).
     let fmu_type = if first & 4 != 0 {
-        magswarm_fmi2::abi::FMI2_MODEL_EXCHANGE
+        magswarm_fmi::fmi2::abi::FMI2_MODEL_EXCHANGE
     } else {
-        magswarm_fmi2::abi::FMI2_CO_SIMULATION
+        magswarm_fmi::fmi2::abi::FMI2_CO_SIMULATION
     };
     let resource: Option<Vec<u8>> = match first % 4 {
         0 => None,
@@ -243,7 +246,9 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
                 let vr = vr_of::<M>(&mut b, VarType::Integer);
                 let x = i32::from_le_bytes([b.u8(), b.u8(), b.u8(), b.u8()]);
                 // SAFETY: live instance, one-element arrays.
-                unsafe { magswarm_fmi2::shell::fmi2_set_integer::<M>(h.component(), &vr, 1, &x) }
+                unsafe {
+                    magswarm_fmi::fmi2::shell::fmi2_set_integer::<M>(h.component(), &vr, 1, &x)
+                }
             }
             15 => {
                 let n = 1 + b.u8() as usize % 3;
@@ -254,7 +259,7 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
                 let mut out = vec![0.0; n];
                 // SAFETY: arrays of the stated lengths.
                 unsafe {
-                    magswarm_fmi2::shell::fmi2_get_directional_derivative::<M>(
+                    magswarm_fmi::fmi2::shell::fmi2_get_directional_derivative::<M>(
                         h.component(),
                         unknowns.as_ptr(),
                         n,
@@ -269,7 +274,7 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
                 let (start, stop, tol) = (b.f64(), b.f64(), b.f64());
                 // SAFETY: live instance.
                 unsafe {
-                    magswarm_fmi2::shell::fmi2_setup_experiment::<M>(
+                    magswarm_fmi::fmi2::shell::fmi2_setup_experiment::<M>(
                         h.component(),
                         (b.u8() & 1) as i32,
                         tol,
@@ -313,7 +318,7 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
                 let mut ind = vec![0.0; n];
                 // SAFETY: live instance, `ind` has `n` writable elements.
                 unsafe {
-                    magswarm_fmi2::shell::fmi2_get_event_indicators::<M>(
+                    magswarm_fmi::fmi2::shell::fmi2_get_event_indicators::<M>(
                         h.component(),
                         ind.as_mut_ptr(),
                         n,
@@ -324,9 +329,11 @@ pub fn drive<M: FmuModel>(data: &[u8]) {
                 // SAFETY: live instance.
                 unsafe {
                     if b.u8() & 1 == 0 {
-                        magswarm_fmi2::shell::fmi2_enter_initialization_mode::<M>(h.component())
+                        magswarm_fmi::fmi2::shell::fmi2_enter_initialization_mode::<M>(
+                            h.component(),
+                        )
                     } else {
-                        magswarm_fmi2::shell::fmi2_exit_initialization_mode::<M>(h.component())
+                        magswarm_fmi::fmi2::shell::fmi2_exit_initialization_mode::<M>(h.component())
                     }
                 }
             }

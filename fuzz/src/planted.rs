@@ -1,8 +1,10 @@
-//! A test-only model with a planted bug, to show the harness can fail: its `do_step` panics
+//! A test-only model with a planted bug, to show the harness can fail: its `step` panics
 //! when the input is exactly 0.5. The shell catches the panic (the importer gets fmi2Error),
 //! and the driver's invariant "no panic inside the FMU" turns it into a fuzzer crash.
 
-use magswarm_fmi2::{Ctx, Fmi2Err, FmuModel, InstantiateArgs, ModelInfo, VarType, Variable};
+use magswarm_fmi::fmi2::{
+    Ctx, FmuModel, InstantiateArgs, ModelError, ModelInfo, VarType, Variable,
+};
 
 static VARIABLES: [Variable; 2] = [
     Variable::real("u", 0).input().start_real(0.0).unit("1"),
@@ -18,9 +20,9 @@ static INFO: ModelInfo = ModelInfo {
     copyright: None,
     license: None,
     generation_tool: "magswarm-fuzz",
-    naming_convention: magswarm_fmi2::NamingConvention::Flat,
+    naming_convention: magswarm_fmi::fmi2::NamingConvention::Flat,
     default_experiment: None,
-    units: &[magswarm_fmi2::units::ONE],
+    units: &[magswarm_fmi::fmi2::units::ONE],
     log_categories: &[],
     variables: &VARIABLES,
 };
@@ -36,35 +38,35 @@ impl FmuModel for Planted {
     fn model_info() -> &'static ModelInfo {
         &INFO
     }
-    fn instantiate(_: &mut Ctx<'_>, _: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+    fn instantiate(_: &mut Ctx<'_>, _: &InstantiateArgs<'_>) -> Result<Self, ModelError> {
         Ok(Planted { u: 0.0, y: 0.0 })
     }
-    fn do_step(&mut self, _: &mut Ctx<'_>, _t: f64, _h: f64) -> Result<(), Fmi2Err> {
+    fn step(&mut self, _: &mut Ctx<'_>, _t: f64, _h: f64) -> Result<(), ModelError> {
         if self.u == 0.5 {
             panic!("planted bug: u = 0.5");
         }
         self.y = 2.0 * self.u;
         Ok(())
     }
-    fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         match vr {
             0 => Ok(self.u),
             1 => Ok(self.y),
-            _ => Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+            _ => Err(ModelError::unknown_vr(VarType::Real, vr)),
         }
     }
-    fn set_real(&mut self, _: &mut Ctx<'_>, vr: u32, x: f64) -> Result<(), Fmi2Err> {
+    fn set_real(&mut self, _: &mut Ctx<'_>, vr: u32, x: f64) -> Result<(), ModelError> {
         match vr {
             0 => self.u = x,
-            _ => return Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+            _ => return Err(ModelError::unknown_vr(VarType::Real, vr)),
         }
         Ok(())
     }
     type State = (f64, f64);
-    fn save_state(&self) -> Result<(f64, f64), Fmi2Err> {
+    fn save_state(&self) -> Result<(f64, f64), ModelError> {
         Ok((self.u, self.y))
     }
-    fn restore_state(&mut self, (u, y): (f64, f64)) -> Result<(), Fmi2Err> {
+    fn restore_state(&mut self, (u, y): (f64, f64)) -> Result<(), ModelError> {
         (self.u, self.y) = (u, y);
         Ok(())
     }

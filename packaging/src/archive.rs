@@ -1,29 +1,60 @@
-//! The FMI 2.0 archive layout: a zip with `modelDescription.xml` at the root, the shared
-//! library under `binaries/<platform>/<modelIdentifier>.so` (executable), data under
-//! `resources/` and a page under `documentation/`. Both FMUs are written through
-//! [`fmu_zip`], so the layout and the compression settings are decided once.
+//! The FMU archive layout (the same in FMI 2.0 and 3.0 but for the platform folder): a zip
+//! with `modelDescription.xml` at the root, the shared library under
+//! `binaries/<platform>/<modelIdentifier>.so` (executable), data under `resources/` and a
+//! page under `documentation/`. Every FMU is written through [`fmu_zip`], so the layout and
+//! the compression settings are decided once.
 
 use std::io::Write;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
+use magswarm_fmi::FmiVersion;
 
-/// Platform folder inside the FMU: the FMI 2.0 name of the platform this packager was
-/// compiled for (the library it packages is built for the same target). Only Linux is
-/// built and tested; the other names follow the standard's table.
-pub const PLATFORM: &str = if cfg!(all(target_os = "linux", target_pointer_width = "64")) {
-    "linux64"
-} else if cfg!(target_os = "linux") {
-    "linux32"
-} else if cfg!(all(target_os = "windows", target_pointer_width = "64")) {
-    "win64"
-} else if cfg!(target_os = "windows") {
-    "win32"
-} else if cfg!(target_os = "macos") {
-    "darwin64"
-} else {
-    "linux64"
-};
+/// The platform folder inside an FMU of `version` for the target this packager was compiled
+/// for (the library it packages is built for the same target): FMI 2.0 names platforms
+/// `<os><bits>` (`linux64`, `win64`, `darwin64`), FMI 3.0 `<arch>-<os>` (`x86_64-linux`,
+/// `aarch64-darwin`). Only Linux is built and tested here; the other names follow the
+/// standards' tables.
+pub fn platform_folder(version: FmiVersion) -> &'static str {
+    let os = if cfg!(target_os = "windows") {
+        "win"
+    } else if cfg!(target_os = "macos") {
+        "darwin"
+    } else {
+        "linux"
+    };
+    match version {
+        FmiVersion::V2 => match (os, cfg!(target_pointer_width = "64")) {
+            ("win", true) => "win64",
+            ("win", false) => "win32",
+            ("darwin", _) => "darwin64",
+            (_, true) => "linux64",
+            (_, false) => "linux32",
+        },
+        FmiVersion::V3 => {
+            let arch = if cfg!(target_arch = "aarch64") {
+                "aarch64"
+            } else if cfg!(target_arch = "x86") {
+                "x86"
+            } else if cfg!(target_arch = "arm") {
+                "aarch32"
+            } else {
+                "x86_64"
+            };
+            match (arch, os) {
+                ("x86_64", "linux") => "x86_64-linux",
+                ("aarch64", "linux") => "aarch64-linux",
+                ("x86", "linux") => "x86-linux",
+                ("aarch32", "linux") => "aarch32-linux",
+                ("x86_64", "win") => "x86_64-windows",
+                ("x86", "win") => "x86-windows",
+                ("aarch64", "darwin") => "aarch64-darwin",
+                ("x86_64", "darwin") => "x86_64-darwin",
+                _ => "x86_64-linux",
+            }
+        }
+    }
+}
 
 /// One file of an archive.
 pub struct Entry<'a> {
@@ -50,17 +81,21 @@ impl<'a> Entry<'a> {
         Self::file("modelDescription.xml", xml.as_bytes())
     }
 
-    /// The compiled library as `binaries/linux64/<model_identifier>.so`.
-    pub fn binary(model_identifier: &str, so: &'a [u8]) -> Self {
+    /// The compiled library as `binaries/<platform>/<model_identifier>.so`, the platform
+    /// folder of FMI `version` ([`platform_folder`]).
+    pub fn binary(model_identifier: &str, so: &'a [u8], version: FmiVersion) -> Self {
         Entry {
-            name: format!("binaries/{PLATFORM}/{model_identifier}.so"),
+            name: format!(
+                "binaries/{}/{model_identifier}.so",
+                platform_folder(version)
+            ),
             data: so,
             executable: true,
         }
     }
 
-    /// `resources/<name>`: what the FMU reads at instantiation (fmi2Instantiate's resource
-    /// location points at this folder).
+    /// `resources/<name>`: what the FMU reads at instantiation (the resource location the
+    /// importer passes points at this folder).
     pub fn resource(name: &str, data: &'a [u8]) -> Self {
         Self::file(format!("resources/{name}"), data)
     }
@@ -122,17 +157,19 @@ mod tests {
         let so = b"\x7fELF fake";
         let bytes = fmu_zip(&[
             Entry::model_description("<fmiModelDescription/>"),
-            Entry::binary("Demo", so),
+            Entry::binary("Demo", so, FmiVersion::V2),
+            Entry::binary("Demo", so, FmiVersion::V3),
             Entry::resource("model.json", b"{}"),
             Entry::documentation("<html/>"),
         ])
         .unwrap();
         let mut z = zip::ZipArchive::new(std::io::Cursor::new(bytes)).unwrap();
         let names: Vec<String> = z.file_names().map(|n| n.unwrap().into_owned()).collect();
-        assert_eq!(names.len(), 4);
+        assert_eq!(names.len(), 5);
         for n in [
             "modelDescription.xml",
             "binaries/linux64/Demo.so",
+            "binaries/x86_64-linux/Demo.so",
             "resources/model.json",
             "documentation/index.html",
         ] {

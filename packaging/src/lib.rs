@@ -2,14 +2,16 @@
 //! the check that the packaged library is the one this build was made from.
 //!
 //! `magswarm fmu` (the CLI) parses its arguments and calls [`plant::package`] or
-//! [`pid::package`]; everything about the archive itself lives here so the tree has one place
-//! that knows the FMI 2.0 layout (see `packaging/README.md`):
+//! [`pid::package`] with the FMI version to write; everything about the archive itself lives
+//! here so the tree has one place that knows the FMU layout (see `packaging/README.md`):
 //!
-//! - [`archive`]: the zip layout (`modelDescription.xml`, `binaries/linux64/<id>.so`,
-//!   `resources/`, `documentation/index.html`) and atomic writing of the result;
+//! - [`archive`]: the zip layout (`modelDescription.xml`, `binaries/<platform>/<id>.so` with
+//!   the platform folder of the version, `resources/`, `documentation/index.html`) and atomic
+//!   writing of the result;
 //! - [`library`]: finding (and building) the compiled FMU library and asking it for its own
 //!   modelDescription.xml, so the XML in an archive is the one its binary was compiled from;
-//! - [`stale`]: the staleness check (the library's GUID against this build's variable table);
+//! - [`stale`]: the staleness check (the library's GUID / instantiation token against this
+//!   build's variable table);
 //! - [`plant`]: `MagSwarm.fmu`; [`pid`]: the controller FMU `MagSwarmPID.fmu`.
 
 pub mod archive;
@@ -18,8 +20,9 @@ pub mod pid;
 pub mod plant;
 pub mod stale;
 
-pub use archive::{write_atomic, PLATFORM};
+pub use archive::{platform_folder, write_atomic};
 pub use library::{locate_library, xml_from_library};
+pub use magswarm_fmi::FmiVersion;
 
 /// Escape text for HTML element content and attribute values (the documentation pages).
 pub(crate) fn esc(s: &str) -> String {

@@ -8,6 +8,7 @@
 use std::path::Path;
 
 use anyhow::{bail, Result};
+use magswarm_fmi::FmiVersion;
 
 /// Value of attribute `name` in an XML fragment (first occurrence).
 pub fn attr(xml: &str, name: &str) -> Option<String> {
@@ -17,15 +18,24 @@ pub fn attr(xml: &str, name: &str) -> Option<String> {
     Some(xml[s..s + e].to_string())
 }
 
-/// The GUID of the plant FMU as this build computes it from its variable table.
-pub fn plant_guid() -> String {
-    magswarm_fmi2::guid::<magswarm_fmu::MagSwarm>()
+/// The GUID (FMI 2.0) or instantiation token (FMI 3.0) of the plant FMU as this build
+/// computes it from its variable table.
+pub fn plant_guid(version: FmiVersion) -> String {
+    magswarm_fmi::token::<magswarm_fmu::MagSwarm>(version)
+}
+
+/// The attribute that carries the GUID in FMI `version`.
+pub fn token_attr(version: FmiVersion) -> &'static str {
+    match version {
+        FmiVersion::V2 => "guid",
+        FmiVersion::V3 => "instantiationToken",
+    }
 }
 
 /// Fail unless the plant XML that `lib` produced carries this build's GUID.
-pub fn check_plant_library(lib: &Path, xml: &str) -> Result<String> {
-    let guid = plant_guid();
-    if !xml.contains(&format!("guid=\"{guid}\"")) {
+pub fn check_plant_library(lib: &Path, xml: &str, version: FmiVersion) -> Result<String> {
+    let guid = plant_guid(version);
+    if !xml.contains(&format!("{}=\"{guid}\"", token_attr(version))) {
         bail!(
             "{} was built from other sources than this magswarm binary (GUID differs); \
              rebuild both with `cargo build --release --workspace`",
@@ -51,9 +61,23 @@ mod tests {
     #[test]
     fn plant_xml_with_another_guid_is_stale() {
         let lib = Path::new("/x/libmagswarm_fmu.so");
-        let good = format!("<fmiModelDescription guid=\"{}\">", plant_guid());
-        assert_eq!(check_plant_library(lib, &good).unwrap(), plant_guid());
-        let e = check_plant_library(lib, "<fmiModelDescription guid=\"{0}\">")
+        let v2 = FmiVersion::V2;
+        let good = format!("<fmiModelDescription guid=\"{}\">", plant_guid(v2));
+        assert_eq!(check_plant_library(lib, &good, v2).unwrap(), plant_guid(v2));
+        let v3 = FmiVersion::V3;
+        let good3 = format!(
+            "<fmiModelDescription instantiationToken=\"{}\">",
+            plant_guid(v3)
+        );
+        assert_eq!(
+            check_plant_library(lib, &good3, v3).unwrap(),
+            plant_guid(v3)
+        );
+        assert!(
+            check_plant_library(lib, &good, v3).is_err(),
+            "an FMI 2.0 XML is not FMI 3.0's"
+        );
+        let e = check_plant_library(lib, "<fmiModelDescription guid=\"{0}\">", v2)
             .unwrap_err()
             .to_string();
         assert!(

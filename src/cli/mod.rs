@@ -104,12 +104,12 @@ pub fn main(cli: &Cli) -> i32 {
     }
     let result = match &cli.cmd {
         Cmd::Paper(a) => paper::run(a),
-        Cmd::Fmu(a) => crate::packaging::run(a),
+        Cmd::Fmu(a) => fmu::run(a),
         Cmd::Predict(a) => predict::run(a),
         Cmd::Identify(a) => identify::run(a),
         Cmd::Diagnose(a) => crate::diagnose::run(a),
-        Cmd::Inverse(a) => crate::control_cli::run_inverse(a),
-        Cmd::Linearize(a) => crate::control_cli::run_linearize(a),
+        Cmd::Inverse(a) => control::run_inverse(a),
+        Cmd::Linearize(a) => control::run_linearize(a),
         Cmd::Lab(a) => crate::lab::run(a),
         Cmd::Sweep(a) => sweep::run(a),
     };

@@ -74,7 +74,11 @@ pub fn build(dir: &Path) -> Result<PathBuf> {
     let xml = model_description();
     let bytes = fmu_zip(&[
         Entry::model_description(&xml),
-        Entry::binary(MODEL_IDENTIFIER, &binary),
+        Entry::binary(
+            MODEL_IDENTIFIER,
+            &binary,
+            magswarm_packaging::FmiVersion::V2,
+        ),
         Entry::file("sources/euler2.c", SOURCE.as_bytes()),
     ])
     .with_context(|| format!("cannot package {}", fmu.display()))?;

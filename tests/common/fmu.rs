@@ -16,8 +16,13 @@ pub fn magswarm_exe() -> PathBuf {
 /// Run `magswarm fmu [--model MODEL] --out OUT` (it builds the FMU's cdylib with cargo if
 /// needed) and panic with its output if it fails.
 pub fn package(out: &Path, model: Option<&Path>) -> PathBuf {
+    package_version(out, model, 2)
+}
+
+/// Run `magswarm fmu [--model MODEL] --out OUT --fmi-version V`.
+pub fn package_version(out: &Path, model: Option<&Path>, version: u32) -> PathBuf {
     let mut cmd = Command::new(magswarm_exe());
-    cmd.arg("fmu");
+    cmd.arg("fmu").arg("--fmi-version").arg(version.to_string());
     if let Some(m) = model {
         cmd.arg("--model").arg(m);
     }
@@ -53,4 +58,14 @@ pub fn scratch_dir() -> &'static Path {
 pub fn packaged() -> &'static Path {
     static FMU: OnceLock<PathBuf> = OnceLock::new();
     FMU.get_or_init(|| package(&scratch_dir().join("MagSwarm.fmu"), None))
+}
+
+/// The default MagSwarm.fmu in FMI 3.0, packaged once per test process.
+pub fn packaged_fmi3() -> &'static Path {
+    static FMU: OnceLock<PathBuf> = OnceLock::new();
+    FMU.get_or_init(|| {
+        let dir = scratch_dir().join("fmi3");
+        std::fs::create_dir_all(&dir).expect("scratch dir");
+        package_version(&dir.join("MagSwarm.fmu"), None, 3)
+    })
 }

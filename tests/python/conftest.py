@@ -17,6 +17,10 @@ import pytest
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
 DEFAULT_FMU = REPO / "target" / "fmu" / "MagSwarm.fmu"
+# `magswarm fmu --fmi-version 3` (and `--pid --fmi-version 3`) write these.
+DEFAULT_FMU3 = REPO / "target" / "fmu" / "fmi3" / "MagSwarm.fmu"
+DEFAULT_PID3 = REPO / "target" / "fmu" / "fmi3" / "MagSwarmPID.fmu"
+DEFAULT_PID = REPO / "target" / "fmu" / "MagSwarmPID.fmu"
 
 INPUTS = ("z_m", "omega_m")
 OUTPUTS = ("r1", "r2", "r1_ss", "r2_ss", "S_x", "S_y", "B", "g_z", "k_xx", "k_yy")
@@ -35,15 +39,16 @@ def mm(x: float) -> float:
     return x * 1e-3
 
 
-def fmu_path_or_skip() -> pathlib.Path:
-    path = pathlib.Path(os.environ.get("MAGSWARM_FMU", str(DEFAULT_FMU)))
+def fmu_path_or_skip(env: str = "MAGSWARM_FMU", default: pathlib.Path = DEFAULT_FMU,
+                     command: str = "magswarm fmu") -> pathlib.Path:
+    path = pathlib.Path(os.environ.get(env, str(default)))
     if not path.is_absolute():
         path = (REPO / path).resolve()
     if path.is_file():
         return path
     msg = (
-        f"FMU not found at {path}: build it with `cargo build --release && target/release/magswarm fmu` "
-        "(or set MAGSWARM_FMU)"
+        f"FMU not found at {path}: build it with `cargo build --release && target/release/{command}` "
+        f"(or set {env})"
     )
     if os.environ.get("CI"):
         pytest.fail(msg + " [CI is set: a missing FMU is a failure]", pytrace=False)
@@ -53,6 +58,35 @@ def fmu_path_or_skip() -> pathlib.Path:
 @pytest.fixture(scope="session")
 def fmu_path() -> pathlib.Path:
     return fmu_path_or_skip()
+
+
+@pytest.fixture(scope="session")
+def fmu3_path() -> pathlib.Path:
+    """The FMI 3.0 plant FMU ($MAGSWARM_FMU3, default target/fmu/fmi3/MagSwarm.fmu)."""
+    return fmu_path_or_skip("MAGSWARM_FMU3", DEFAULT_FMU3, "magswarm fmu --fmi-version 3")
+
+
+@pytest.fixture(scope="session")
+def pid_paths() -> dict:
+    """The controller FMU in both versions: {2: path, 3: path}."""
+    return {
+        2: fmu_path_or_skip("MAGSWARM_PID_FMU", DEFAULT_PID, "magswarm fmu --pid"),
+        3: fmu_path_or_skip("MAGSWARM_PID_FMU3", DEFAULT_PID3, "magswarm fmu --pid --fmi-version 3"),
+    }
+
+
+def fmi_sim_or_skip() -> str:
+    """The `fmi-sim` executable (rust-fmi's simulator, `cargo install fmi-sim`, which
+    scripts/setup.sh does): $MAGSWARM_FMI_SIM, the PATH, or ~/.cargo/bin."""
+    candidates = [os.environ.get("MAGSWARM_FMI_SIM"), shutil.which("fmi-sim"),
+                  str(pathlib.Path(os.environ.get("CARGO_HOME", pathlib.Path.home() / ".cargo")) / "bin" / "fmi-sim")]
+    for c in candidates:
+        if c and pathlib.Path(c).is_file():
+            return c
+    msg = "fmi-sim not found: `cargo install fmi-sim --version 0.7.0 --locked` (scripts/setup.sh does it)"
+    if os.environ.get("CI"):
+        pytest.fail(msg + " [CI is set: a missing importer is a failure]", pytrace=False)
+    pytest.skip(msg)
 
 
 @pytest.fixture(scope="session")

@@ -18,7 +18,7 @@ use anyhow::{Context, Result};
 use magswarm_bridge::bake::{self, Baked};
 use magswarm_bridge::watchdog;
 use magswarm_packaging::archive::{self, Entry};
-use magswarm_packaging::{library, stale};
+use magswarm_packaging::{library, stale, FmiVersion};
 
 /// Model identifier of the rig FMU.
 pub const MODEL_IDENTIFIER: &str = "MagSwarmRig";
@@ -53,13 +53,14 @@ pub fn package(r: &Request<'_>) -> Result<String> {
     let so = archive::read_shared_library(&lib)?;
     let wd = watchdog::locate(r.watchdog.clone())?;
     let wd_bytes = std::fs::read(&wd).with_context(|| format!("reading {}", wd.display()))?;
-    let xml = library::xml_from_library(&lib, &baked.text, "rig config")?;
+    let v2 = FmiVersion::V2;
+    let xml = library::xml_from_library(&lib, &baked.text, "rig config", v2.major())?;
     stale::check_model_identifier(&lib, &xml, MODEL_IDENTIFIER)?;
     let guid = stale::attr(&xml, "guid").unwrap_or_default();
     let doc = documentation_html(&baked, r.config);
     let mut entries = vec![
         Entry::model_description(&xml),
-        Entry::binary(MODEL_IDENTIFIER, &so),
+        Entry::binary(MODEL_IDENTIFIER, &so, v2),
         Entry::resource("rig.toml", baked.text.as_bytes()),
     ];
     for (name, bytes) in &baked.files {

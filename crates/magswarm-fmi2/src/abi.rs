@@ -1,8 +1,7 @@
 //! The C types of the FMI 2.0 ABI, spelled out in Rust.
 //!
 //! These mirror `fmi2TypesPlatform.h` and `fmi2FunctionTypes.h` of the standard; this module
-//! depends on nothing else in the crate (which log category goes with which status is the
-//! logger's business: [`crate::log::category_of`]). They are
+//! depends on nothing else in the crate. They are
 //! written by hand because no crate exports (as opposed to imports) FMI 2.0 well, and
 //! because the exact widths matter: `fmi2Boolean` is a C `int`, not a Rust `bool`, and
 //! enums that *come in* from the importer are taken as plain `c_int` so that an
@@ -41,7 +40,7 @@ pub const FMI2_TYPES_PLATFORM: &[u8] = b"default\0";
 /// What `fmi2GetVersion` returns.
 pub const FMI2_VERSION: &[u8] = b"2.0\0";
 
-/// `fmi2Status`, also the status every model hook reports.
+/// `fmi2Status` (the neutral [`magswarm_fmi_core::Status`] plus `fmi2Pending`).
 ///
 /// The order is the severity order of the standard, so `max` of two statuses is the
 /// status to report for a call that did two things.
@@ -60,6 +59,27 @@ pub enum Fmi2Status {
     Fatal = 4,
     /// `fmi2Pending`: never produced here (no asynchronous `fmi2DoStep`).
     Pending = 5,
+}
+
+impl From<magswarm_fmi_core::Status> for Fmi2Status {
+    /// The neutral status by value (the numbers are the same in FMI 2.0).
+    fn from(s: magswarm_fmi_core::Status) -> Self {
+        use magswarm_fmi_core::Status as S;
+        match s {
+            S::Ok => Fmi2Status::Ok,
+            S::Warning => Fmi2Status::Warning,
+            S::Discard => Fmi2Status::Discard,
+            S::Error => Fmi2Status::Error,
+            S::Fatal => Fmi2Status::Fatal,
+        }
+    }
+}
+
+impl From<Fmi2Status> for i32 {
+    /// The C value.
+    fn from(s: Fmi2Status) -> i32 {
+        s as i32
+    }
 }
 
 /// `fmi2Type` as an integer: `fmi2ModelExchange`.

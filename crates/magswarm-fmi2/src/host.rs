@@ -6,64 +6,16 @@
 //! invariants every call must keep: the state machine matches what the calls returned, and
 //! an instance that stepped or initialised without error has finite outputs.
 
+use magswarm_fmi_core::Refusal;
 use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::marker::PhantomData;
 use std::ptr::null_mut;
-use std::sync::Mutex;
+
+pub use magswarm_fmi_core::recorder::{LogEntry, Recorder};
+use magswarm_fmi_core::{Causality, FmuModel, Instance, Mode, VarType};
 
 use crate::abi::*;
-use crate::instance::Instance;
-use crate::model::{Causality, FmuModel, VarType};
 use crate::shell;
-use crate::state::Mode;
-
-/// One message the FMU passed to the logger.
-#[derive(Debug, Clone, PartialEq)]
-pub struct LogEntry {
-    /// Status of the message.
-    pub status: c_int,
-    /// Category.
-    pub category: String,
-    /// Text.
-    pub message: String,
-}
-
-/// Records what the FMU logs (passed as the `componentEnvironment`).
-#[derive(Debug, Default)]
-pub struct Recorder(Mutex<Vec<LogEntry>>);
-
-impl Recorder {
-    /// Every message so far.
-    pub fn entries(&self) -> Vec<LogEntry> {
-        self.0.lock().map(|v| v.clone()).unwrap_or_default()
-    }
-    /// Forget the messages so far.
-    pub fn clear(&self) {
-        if let Ok(mut v) = self.0.lock() {
-            v.clear()
-        }
-    }
-    /// Number of messages so far.
-    pub fn len(&self) -> usize {
-        self.0.lock().map(|v| v.len()).unwrap_or(0)
-    }
-    /// Whether nothing was logged.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-    /// Messages with at least this status.
-    pub fn at_least(&self, status: Fmi2Status) -> Vec<String> {
-        self.entries()
-            .into_iter()
-            .filter(|e| e.status >= status as c_int)
-            .map(|e| e.message)
-            .collect()
-    }
-    /// Whether a message with at least `status` contains `needle`.
-    pub fn has(&self, status: Fmi2Status, needle: &str) -> bool {
-        self.at_least(status).iter().any(|m| m.contains(needle))
-    }
-}
 
 /// The logger: the fixed part of the variadic C signature (the shell never passes extra
 /// arguments, so this is ABI-compatible).
@@ -85,13 +37,7 @@ unsafe extern "C" fn record(
     // SAFETY: `env` is the `Recorder` this host passed as componentEnvironment, alive as
     // long as the instance.
     let rec = unsafe { &*(env as *const Recorder) };
-    if let Ok(mut v) = rec.0.lock() {
-        v.push(LogEntry {
-            status,
-            category: s(category),
-            message: s(message),
-        });
-    }
+    rec.push(status, s(category), s(message));
 }
 
 /// Callback functions that log into `rec`.
@@ -137,7 +83,7 @@ impl<M: FmuModel> Host<M> {
     ) -> Result<Self, Vec<LogEntry>> {
         let log = Box::<Recorder>::default();
         let cb = Box::new(callbacks(&log));
-        let guid = CString::new(crate::guid::<M>()).unwrap_or_default();
+        let guid = CString::new(magswarm_fmi_core::guid::<M>()).unwrap_or_default();
         let name = CString::new(name.replace('\0', "")).unwrap_or_default();
         let res = resource_location.map(|r| {
             CString::new(r.iter().copied().filter(|&b| b != 0).collect::<Vec<u8>>())
@@ -179,7 +125,7 @@ impl<M: FmuModel> Host<M> {
     /// The state-machine state.
     pub fn mode(&self) -> Mode {
         // SAFETY: `c` is a live instance of `M` created by this host.
-        unsafe { (*(self.c as *const Instance<M>)).shell.mode }
+        unsafe { (*(self.c as *const Instance<M>)).mode() }
     }
 
     /// Setup, enter and exit initialisation at `start`; the worst status.
@@ -409,7 +355,12 @@ impl<M: FmuModel> Host<M> {
     /// instance in Fatal, an Error one in Error (or Fatal); in a state where getters are
     /// allowed, every Real output reads OK and finite; every Error or Fatal was explained
     /// through the logger (`logged_before` = number of messages before the call).
-    pub fn check(&self, status: Fmi2Status, logged_before: usize) -> Result<(), String> {
+    pub fn check(&self, status: Fmi2Status, logged_before: usize) -> Result<(), Refusal> {
+        self.broken_invariant(status, logged_before)
+            .map_err(Refusal)
+    }
+
+    fn broken_invariant(&self, status: Fmi2Status, logged_before: usize) -> Result<(), String> {
         let mode = self.mode();
         match status {
             Fmi2Status::Fatal if mode != Mode::Fatal => {
@@ -429,7 +380,7 @@ impl<M: FmuModel> Host<M> {
             let new = self.log.entries().into_iter().skip(logged_before);
             if !new
                 .into_iter()
-                .any(|e| e.status >= Fmi2Status::Error as c_int)
+                .any(|e| e.status >= Fmi2Status::Error as i32)
             {
                 return Err(format!("returned {status:?} without logging why"));
             }

@@ -7,78 +7,8 @@
 //! sequence. `StepInProgress` and `StepCanceled` do not exist here because `fmi2DoStep`
 //! never returns `fmi2Pending`.
 
-use crate::model::{Causality, Initial, Variability, Variable};
-
-/// The state of an instance (the importer sees it only through what calls are allowed).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Mode {
-    /// After `fmi2Instantiate` or `fmi2Reset`.
-    Instantiated,
-    /// Between `fmi2EnterInitializationMode` and `fmi2ExitInitializationMode`.
-    InitializationMode,
-    /// Ready for `fmi2DoStep` ("slaveInitialized" / stepComplete).
-    StepComplete,
-    /// The last `fmi2DoStep` returned `fmi2Discard`.
-    StepFailed,
-    /// After `fmi2Terminate`.
-    Terminated,
-    /// Model Exchange: event mode (after `fmi2ExitInitializationMode` or `fmi2EnterEventMode`).
-    EventMode,
-    /// Model Exchange: continuous-time mode (the importer's integrator runs).
-    ContinuousTimeMode,
-    /// A call returned `fmi2Error`: only getters, FMU-state functions, reset and free.
-    Error,
-    /// A call returned `fmi2Fatal`: only free.
-    Fatal,
-}
-
-impl Mode {
-    /// Stable byte for serialized FMU states.
-    pub fn to_byte(self) -> u8 {
-        match self {
-            Mode::Instantiated => 1,
-            Mode::InitializationMode => 2,
-            Mode::StepComplete => 3,
-            Mode::StepFailed => 4,
-            Mode::Terminated => 5,
-            Mode::Error => 6,
-            Mode::Fatal => 7,
-            Mode::EventMode => 8,
-            Mode::ContinuousTimeMode => 9,
-        }
-    }
-
-    /// Inverse of [`Mode::to_byte`].
-    pub fn from_byte(b: u8) -> Option<Mode> {
-        Some(match b {
-            1 => Mode::Instantiated,
-            2 => Mode::InitializationMode,
-            3 => Mode::StepComplete,
-            4 => Mode::StepFailed,
-            5 => Mode::Terminated,
-            6 => Mode::Error,
-            7 => Mode::Fatal,
-            8 => Mode::EventMode,
-            9 => Mode::ContinuousTimeMode,
-            _ => return None,
-        })
-    }
-
-    /// Human-readable name for log messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Instantiated => "Instantiated",
-            Mode::InitializationMode => "InitializationMode",
-            Mode::StepComplete => "StepComplete",
-            Mode::StepFailed => "StepFailed",
-            Mode::Terminated => "Terminated",
-            Mode::Error => "Error",
-            Mode::Fatal => "Fatal",
-            Mode::EventMode => "EventMode",
-            Mode::ContinuousTimeMode => "ContinuousTimeMode",
-        }
-    }
-}
+pub use magswarm_fmi_core::mode::{may_set, Mode};
+use magswarm_fmi_core::Capability;
 
 /// Every instance function of the FMI 2.0 Co-Simulation API.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -219,6 +149,22 @@ impl Func {
         Func::GetContinuousStates,
         Func::GetNominalsOfContinuousStates,
     ];
+
+    /// The optional group this function belongs to, with the XML attribute that declares it.
+    pub fn capability(self) -> Option<(Capability, &'static str)> {
+        match self {
+            Func::GetFmuState
+            | Func::SetFmuState
+            | Func::FreeFmuState
+            | Func::SerializedFmuStateSize
+            | Func::SerializeFmuState
+            | Func::DeSerializeFmuState => Some((Capability::FmuState, "canGetAndSetFMUstate")),
+            Func::GetDirectionalDerivative => {
+                Some((Capability::Derivatives, "providesDirectionalDerivative"))
+            }
+            _ => None,
+        }
+    }
 
     /// Whether the function belongs to Model Exchange only (refused on a Co-Simulation
     /// instance, whatever its state).
@@ -362,65 +308,6 @@ impl Func {
     }
 }
 
-/// Whether `var` may be set with `fmi2Set*` in `mode` (footnotes of the CS state table):
-/// - Instantiated: variability ≠ constant with initial exact or approx, and inputs;
-/// - InitializationMode: variability ≠ constant with initial exact, and inputs;
-/// - StepComplete: inputs and tunable parameters.
-///
-/// `Err` carries the reason, for the log message.
-pub fn may_set(var: &Variable, mode: Mode) -> Result<(), String> {
-    let what = || {
-        format!(
-            "variable \"{}\" (causality={}, variability={}{})",
-            var.name,
-            var.causality.as_str(),
-            var.variability.as_str(),
-            var.effective_initial()
-                .map(|i| format!(", initial={}", i.as_str()))
-                .unwrap_or_default()
-        )
-    };
-    if var.variability == Variability::Constant {
-        return Err(format!("{} is a constant and cannot be set", what()));
-    }
-    if matches!(var.causality, Causality::Independent) {
-        return Err(format!(
-            "{} is the independent variable and cannot be set",
-            what()
-        ));
-    }
-    let is_input = var.causality == Causality::Input;
-    let initial = var.effective_initial();
-    let ok = match mode {
-        Mode::Instantiated => is_input || matches!(initial, Some(Initial::Exact | Initial::Approx)),
-        Mode::InitializationMode => is_input || initial == Some(Initial::Exact),
-        Mode::StepComplete | Mode::EventMode => {
-            is_input
-                || (var.causality == Causality::Parameter
-                    && var.variability == Variability::Tunable)
-        }
-        // Model Exchange, continuous-time mode: only continuous inputs.
-        Mode::ContinuousTimeMode => is_input && var.variability == Variability::Continuous,
-        _ => false,
-    };
-    if ok {
-        Ok(())
-    } else {
-        let rule = match mode {
-            Mode::Instantiated => "only inputs and variables with initial=exact or approx can be set before initialization",
-            Mode::InitializationMode => "only inputs and variables with initial=exact can be set during initialization",
-            Mode::StepComplete | Mode::EventMode => "only inputs and tunable parameters can be set after initialization",
-            Mode::ContinuousTimeMode => "only continuous inputs can be set in continuous-time mode (tunable parameters in event mode)",
-            _ => "no variable can be set in this state",
-        };
-        Err(format!(
-            "{} cannot be set in state {}: {rule}",
-            what(),
-            mode.name()
-        ))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -476,31 +363,5 @@ mod tests {
             "{e}"
         );
         assert_eq!(Func::allowed_list(Mode::Fatal), "fmi2FreeInstance");
-    }
-
-    #[test]
-    fn set_rules_follow_causality() {
-        let input = Variable::real("u", 0).input().start_real(0.0);
-        let fixed = Variable::real("p", 1).parameter().start_real(1.0);
-        let tunable = Variable::real("k", 2).tunable_parameter().start_real(1.0);
-        let output = Variable::real("y", 3).output();
-        let constant = Variable::real("c", 4)
-            .variability(Variability::Constant)
-            .start_real(1.0);
-        for m in [
-            Mode::Instantiated,
-            Mode::InitializationMode,
-            Mode::StepComplete,
-        ] {
-            assert!(may_set(&input, m).is_ok());
-            assert!(may_set(&output, m).is_err());
-            assert!(may_set(&constant, m).is_err());
-            assert!(may_set(&tunable, m).is_ok());
-        }
-        assert!(may_set(&fixed, Mode::Instantiated).is_ok());
-        assert!(may_set(&fixed, Mode::InitializationMode).is_ok());
-        let e = may_set(&fixed, Mode::StepComplete).unwrap_err();
-        assert!(e.contains("\"p\"") && e.contains("tunable"), "{e}");
-        assert!(may_set(&input, Mode::Terminated).is_err());
     }
 }

@@ -6,7 +6,7 @@ mod toy;
 
 use ciborium::Value;
 use magswarm_fmi2::host::Host;
-use magswarm_fmi2::snapshot;
+use magswarm_fmi2::magswarm_fmi_core::snapshot;
 use magswarm_fmi2::{Fmi2Status, FmuModel, Mode};
 use toy::*;
 

@@ -480,10 +480,10 @@ fn print_xml() {
 /// table, which both interfaces share).
 #[test]
 fn model_exchange_element_only_for_models_that_opt_in() {
-    use magswarm_fmi2::xml::model_description_xml_with;
+    use magswarm_fmi2::xml::{model_description_xml_with, Capabilities};
     use magswarm_fmi2::FmuModel;
     let info = Lag::model_info();
-    let me = model_description_xml_with(info, &XmlOptions::default(), true).unwrap();
+    let me = model_description_xml_with(info, &XmlOptions::default(), Capabilities::ALL).unwrap();
     let doc = parse(&me);
     let top: Vec<&str> = doc
         .iter()

@@ -136,7 +136,7 @@ fn directional_derivatives_match_finite_differences_with_every_effect() {
     fmu.set_real(&mut ctx, vr::OMEGA_M, 3.0 * std::f64::consts::TAU)
         .unwrap();
     for k in 0..4 {
-        fmu.do_step(&mut ctx, 1800.0 + 0.5 * k as f64, 0.5).unwrap();
+        fmu.step(&mut ctx, 1800.0 + 0.5 * k as f64, 0.5).unwrap();
     }
     let unknowns = [
         vr::R1,
@@ -151,6 +151,12 @@ fn directional_derivatives_match_finite_differences_with_every_effect() {
         vr::K_YY,
         vr::DER_R1,
         vr::DER_R2,
+        vr::R1_ODE,
+        vr::FORM_V2,
+        vr::DER_FORM_X1,
+        vr::DER_FORM_V1,
+        vr::DER_FORM_X2,
+        vr::DER_FORM_V2,
     ];
     let read = |m: &mut MagSwarm| -> Vec<f64> {
         unknowns.iter().map(|&u| m.get_real(u).unwrap()).collect()
@@ -166,9 +172,9 @@ fn directional_derivatives_match_finite_differences_with_every_effect() {
             }
             _ => {
                 let p = c.plant.as_mut().unwrap();
-                let mut snap = p.snapshot();
-                snap.r[(known - vr::R1) as usize] += h * 1e3; // m -> mm
-                *p = Plant::from_snapshot(p.model().clone(), &snap);
+                let mut x = p.continuous_state();
+                x[(known - vr::R1_ODE) as usize] += h * 1e3; // SI -> mm
+                p.set_continuous_state(x);
             }
         }
         read(&mut c)
@@ -181,17 +187,25 @@ fn directional_derivatives_match_finite_differences_with_every_effect() {
         observed.r1,
         state[0]
     );
+    // Move the formation mode off its rest so every term of its right-hand side counts.
+    let p = fmu.plant.as_mut().unwrap();
+    let mut x = p.continuous_state();
+    x[3] = 0.4;
+    x[4] -= 0.3;
+    p.set_continuous_state(x);
     for (known, h) in [
         (vr::Z_M, 1e-7),
         (vr::OMEGA_M, 1e-5),
-        (vr::R1, 1e-7),
-        (vr::R2, 1e-7),
+        (vr::R1_ODE, 1e-7),
+        (vr::R2_ODE, 1e-7),
+        (vr::FORM_X1, 1e-7),
+        (vr::FORM_V1, 1e-7),
+        (vr::FORM_X2, 1e-7),
+        (vr::FORM_V2, 1e-7),
     ] {
         let plus = perturbed(&fmu, known, h);
         let minus = perturbed(&fmu, known, -h);
-        let analytic = fmu
-            .directional_derivative(&unknowns, &[known], &[1.0])
-            .unwrap();
+        let analytic = fmu.jacobian(&unknowns, &[known]).unwrap();
         for (j, &u) in unknowns.iter().enumerate() {
             let fd = (plus[j] - minus[j]) / (2.0 * h);
             let scale = fd.abs().max(analytic[j].abs());

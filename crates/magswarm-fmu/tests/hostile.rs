@@ -1,8 +1,8 @@
 //! MagSwarm.fmu driven through the shell's C entry points by a hostile importer: absurd but
 //! finite inputs, forged states, resources that are not where the FMU was packaged with them.
 
-use magswarm_fmi2::host::Host;
-use magswarm_fmi2::{Fmi2Status, FmuModel, Mode};
+use magswarm_fmi::fmi2::host::Host;
+use magswarm_fmi::fmi2::{Fmi2Status, FmuModel, Mode};
 use magswarm_fmu::{vr, MagSwarm, MagSwarmState};
 
 use Fmi2Status::{Error, Ok as OK};
@@ -84,9 +84,9 @@ fn forged(good: &MagSwarmState, field: &str, value: f64) -> MagSwarmState {
 #[test]
 fn forged_states_are_validated_like_set_values() {
     let mut m = MagSwarm::new(None).unwrap();
-    let mut ctx = magswarm_fmi2::Ctx::silent();
+    let mut ctx = magswarm_fmi::fmi2::Ctx::silent();
     m.exit_initialization_mode(&mut ctx).unwrap();
-    m.do_step(&mut ctx, 0.0, 0.1).unwrap();
+    m.step(&mut ctx, 0.0, 0.1).unwrap();
     let good = m.save_state().unwrap();
     assert!(m.clone().restore_state(good.clone()).is_ok());
     for (field, value) in [
@@ -153,8 +153,8 @@ fn serialized_plant_states_replay_and_damaged_ones_are_refused() {
         a.get_real(vr::R1).1.to_bits(),
         b.get_real(vr::R1).1.to_bits()
     );
-    let guid = magswarm_fmi2::guid::guid_u128(MagSwarm::model_info());
-    let payload = magswarm_fmi2::snapshot::unframe(guid, MagSwarm::STATE_VERSION, &bytes)
+    let guid = magswarm_fmi::fmi2::guid::guid_u128(MagSwarm::model_info());
+    let payload = magswarm_fmi::snapshot::unframe(guid, MagSwarm::STATE_VERSION, &bytes)
         .unwrap()
         .to_vec();
     let mut flipped = bytes.clone();
@@ -165,12 +165,12 @@ fn serialized_plant_states_replay_and_damaged_ones_are_refused() {
         ("bit flip", flipped, "CRC-32 checksum mismatch"),
         (
             "another FMU",
-            magswarm_fmi2::snapshot::frame(!guid, MagSwarm::STATE_VERSION, &payload),
+            magswarm_fmi::snapshot::frame(!guid, MagSwarm::STATE_VERSION, &payload),
             "different FMU",
         ),
         (
             "another state version",
-            magswarm_fmi2::snapshot::frame(guid, MagSwarm::STATE_VERSION + 1, &payload),
+            magswarm_fmi::snapshot::frame(guid, MagSwarm::STATE_VERSION + 1, &payload),
             "this build of the FMU reads version",
         ),
     ] {

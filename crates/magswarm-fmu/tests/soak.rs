@@ -6,8 +6,8 @@
 //! `cargo test --release -p magswarm-fmu --test soak -- --ignored --nocapture`
 //! (`MAGSWARM_SOAK_STEPS` overrides the number of steps).
 
-use magswarm_fmi2::host::Host;
-use magswarm_fmi2::Fmi2Status;
+use magswarm_fmi::fmi2::host::Host;
+use magswarm_fmi::fmi2::Fmi2Status;
 use magswarm_fmu::{vr, MagSwarm};
 
 fn rss_kb() -> u64 {

@@ -1,8 +1,8 @@
 //! Eight threads, each driving its own instances through the C entry points at once (the
 //! standard allows that), give results bit-identical to the same runs done serially.
 
-use magswarm_fmi2::host::Host;
-use magswarm_fmi2::Fmi2Status;
+use magswarm_fmi::fmi2::host::Host;
+use magswarm_fmi::fmi2::Fmi2Status;
 use magswarm_fmu::{vr, MagSwarm};
 
 /// One run: an input schedule that depends on `seed`, 400 steps, the bits of r1 and r2.

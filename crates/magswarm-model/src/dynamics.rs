@@ -44,6 +44,29 @@ pub struct InputTerms {
     de0: [f64; 2],
     /// d K_b,i / d(z_m, omega) (zero for constant gains).
     dk_b: [[f64; 2]; 2],
+    /// Which computation these terms came from (see [`TermsId`]).
+    id: TermsId,
+}
+
+/// A number no other [`InputTerms::new`] in this process returned: two terms with the same
+/// id are the same computation, so the integrator can recognise a communication step it has
+/// already taken without comparing every coefficient (`integrate`). Ignored by equality (it
+/// names a computation, not a value).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TermsId(pub u64);
+
+impl PartialEq for TermsId {
+    fn eq(&self, _: &TermsId) -> bool {
+        true
+    }
+}
+
+impl TermsId {
+    fn fresh() -> TermsId {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static NEXT: AtomicU64 = AtomicU64::new(1);
+        TermsId(NEXT.fetch_add(1, Ordering::Relaxed))
+    }
 }
 
 impl InputTerms {
@@ -76,6 +99,7 @@ impl InputTerms {
             k_b: [d.K_b1, d.K_b2],
             de0,
             dk_b: [[0.0; 2]; 2],
+            id: TermsId::fresh(),
         };
         if d.confinement == crate::params::Confinement::Scheduled {
             terms.schedule(model);
@@ -118,14 +142,21 @@ impl InputTerms {
         }
     }
 
+    /// The identity of this computation (see [`TermsId`]).
+    #[inline]
+    pub fn id(&self) -> u64 {
+        self.id.0
+    }
+
     /// Stiffness of each axis [S_x, S_y].
     #[inline]
     fn s(&self) -> [f64; 2] {
         [self.steady.s_x, self.steady.s_y]
     }
 
-    /// Right-hand side of (4) [mm/s] at state r \[mm\].
-    #[inline]
+    /// Right-hand side of (4) [mm/s] at state r \[mm\] (inlined into the integrator's six
+    /// stages).
+    #[inline(always)]
     pub fn rhs(&self, model: &Model, r: [f64; 2]) -> [f64; 2] {
         let d = &model.dynamics;
         let s = self.s();
@@ -191,7 +222,7 @@ impl InputTerms {
 }
 
 /// `x^e` by multiplication when `e` is 1, 2, 3 or 4 (the paper's beta is 3), by `sqrt` for
-/// 0.5 (the paper's p), else `powf`.
+/// 0.5 (the paper's p), else [`crate::fastpow::pow`] (within its proven bound of `powf`).
 ///
 /// The right-hand side of (4) is evaluated six times per integrator step; `powf` is a libm
 /// call of about 20 ns, three multiplications are under 2 ns. The products differ from
@@ -210,12 +241,19 @@ pub fn pow_int_or_real(x: f64, e: f64) -> f64 {
     } else if e == 0.5 && x >= 0.0 {
         x.sqrt()
     } else {
-        x.powf(e)
+        pow_general(x, e)
     }
 }
 
+/// The general case of [`pow_int_or_real`], out of line so that the integer cases stay small
+/// enough to inline into the right-hand side.
+#[inline(never)]
+fn pow_general(x: f64, e: f64) -> f64 {
+    crate::fastpow::pow(x, e)
+}
+
 /// (r - r_min)^beta, zero below the packing limit (the confinement cannot pull further).
-#[inline]
+#[inline(always)]
 fn confine(gap: f64, beta: f64) -> f64 {
     if gap > 0.0 {
         pow_int_or_real(gap, beta)

@@ -30,6 +30,7 @@ mod conststr;
 pub mod dynamics;
 pub mod effects;
 pub mod envelope;
+pub mod fastpow;
 pub mod field;
 pub mod integrate;
 pub mod learned;

@@ -68,6 +68,8 @@ pub struct Plant {
     /// The last input change for learned terms over the time since it: [time [s], step of
     /// the observed steady map r1, r2 [mm]] (a zero step before the first change).
     change: [f64; 3],
+    /// `model.effects.is_empty()`, kept beside the model (the hot path asks it per call).
+    plain: bool,
 }
 
 /// Everything a [`Plant`] carries besides its model: enough to rebuild it bit-identically
@@ -114,6 +116,7 @@ impl Plant {
     pub fn new(model: Model, z_m: f64, omega: f64) -> Plant {
         let terms = InputTerms::new(&model, z_m, omega);
         let r = terms.steady.radii();
+        let plain = model.effects.is_empty();
         Plant {
             model,
             terms,
@@ -123,6 +126,7 @@ impl Plant {
             tol: Tolerances::default(),
             form: [r[0], 0.0, r[1], 0.0],
             change: [0.0; 3],
+            plain,
         }
     }
 
@@ -131,6 +135,7 @@ impl Plant {
     /// with a moving centroid, a shadow model updated by identification).
     pub fn set_model(&mut self, model: Model) {
         self.terms = InputTerms::new(&model, self.terms.z_m, self.terms.omega);
+        self.plain = model.effects.is_empty();
         self.model = model;
     }
 
@@ -155,19 +160,30 @@ impl Plant {
 
     /// Change the inputs, unchecked (for inputs known to be sane, e.g. from a log that was
     /// read with its rules); the coefficients of (4) are recomputed only if they differ.
+    #[inline]
     pub fn set_inputs(&mut self, z_m: f64, omega: f64) {
         if z_m != self.terms.z_m || omega != self.terms.omega {
-            let before = self.terms.steady;
-            self.terms = InputTerms::new(&self.model, z_m, omega);
-            let fx = &self.model.effects;
-            if fx.tracks_changes() {
-                // The step of the observed steady map this change makes, for the learned
-                // terms over the time since it.
-                let a = fx.observe_steady(&before, self.t);
-                let b = fx.observe_steady(&self.terms.steady, self.t);
-                self.change = [self.t, b.r1 - a.r1, b.r2 - a.r2];
-            }
+            self.change_inputs(z_m, omega);
         }
+    }
+
+    /// The work of an input change, out of line: the hot path of [`Plant::set_inputs`] (the
+    /// inputs did not change) is two comparisons.
+    #[inline(never)]
+    fn change_inputs(&mut self, z_m: f64, omega: f64) {
+        let fx = &self.model.effects;
+        if !fx.tracks_changes() {
+            self.terms = InputTerms::new(&self.model, z_m, omega);
+            return;
+        }
+        let before = self.terms.steady;
+        self.terms = InputTerms::new(&self.model, z_m, omega);
+        // The step of the observed steady map this change makes, for the learned terms over
+        // the time since it.
+        let fx = &self.model.effects;
+        let a = fx.observe_steady(&before, self.t);
+        let b = fx.observe_steady(&self.terms.steady, self.t);
+        self.change = [self.t, b.r1 - a.r1, b.r2 - a.r2];
     }
 
     /// Put the state on the steady map of the current inputs (formation complete).
@@ -192,6 +208,87 @@ impl Plant {
     /// an importer's integrator needs in FMI Model Exchange).
     pub fn derivatives(&self) -> [f64; 2] {
         self.terms.rhs(&self.model, self.r)
+    }
+
+    /// The slow formation mode of the `formation_lag` effect, per axis (x, dx/dt):
+    /// `[x1, v1, x2, v2]` \[mm, mm/s\]. Without the effect it stays where it was set (on the
+    /// map at the start) and nothing reads it.
+    pub fn formation(&self) -> [f64; 4] {
+        self.form
+    }
+
+    /// Set the slow formation mode `[x1, v1, x2, v2]` \[mm, mm/s\] and nothing else: what an
+    /// importer's integrator does with those states in FMI Model Exchange.
+    pub fn set_formation(&mut self, form: [f64; 4]) {
+        self.form = form;
+    }
+
+    /// Every continuous state of the plant, as FMI Model Exchange exposes them:
+    /// `[r1, r2, x1, v1, x2, v2]` \[mm, mm/s\] (ODE (4), then the formation mode).
+    pub fn continuous_state(&self) -> [f64; 6] {
+        let f = self.form;
+        [self.r[0], self.r[1], f[0], f[1], f[2], f[3]]
+    }
+
+    /// Set every continuous state, in the order of [`Plant::continuous_state`].
+    pub fn set_continuous_state(&mut self, x: [f64; 6]) {
+        self.r = [x[0], x[1]];
+        self.form = [x[2], x[3], x[4], x[5]];
+    }
+
+    /// The time derivative of [`Plant::continuous_state`] \[mm/s, mm/s^2\]: ODE (4) for the
+    /// radii and, with `formation_lag`, the slow mode
+    /// `x'' + 2 zeta x'/tau + (x - r_ss)/tau^2 = 0` toward the (unobserved) steady map; zero
+    /// without the effect, as [`Plant::step`] leaves the mode alone then.
+    pub fn continuous_derivatives(&self) -> [f64; 6] {
+        let dr = self.derivatives();
+        let [x1, v1, x2, v2] = self.form;
+        match &self.model.effects.formation_lag {
+            None => [dr[0], dr[1], 0.0, 0.0, 0.0, 0.0],
+            Some(fl) => {
+                let target = self.terms.steady.radii();
+                let wn = 1.0 / fl.tau_s;
+                let acc = |x: f64, v: f64, r: f64| -wn * wn * (x - r) - 2.0 * fl.zeta * wn * v;
+                [
+                    dr[0],
+                    dr[1],
+                    v1,
+                    acc(x1, v1, target[0]),
+                    v2,
+                    acc(x2, v2, target[1]),
+                ]
+            }
+        }
+    }
+
+    /// d(continuous_derivatives)/d(z_m \[m\], omega \[rad/s\], continuous_state) at the current
+    /// point, row per derivative: 8 columns (2 inputs, 6 states) in the units of
+    /// [`Plant::continuous_derivatives`] per unit of the known.
+    pub fn continuous_jacobian(&self) -> [[f64; 8]; 6] {
+        let mut j = [[0.0; 8]; 6];
+        let js = self.jac_state();
+        let ju = self.jac_input();
+        for i in 0..2 {
+            j[i][0] = ju[i][0];
+            j[i][1] = ju[i][1];
+            j[i][2] = js[i][0];
+            j[i][3] = js[i][1];
+        }
+        if let Some(fl) = &self.model.effects.formation_lag {
+            let wn = 1.0 / fl.tau_s;
+            let jac = self.terms.steady.jac;
+            for axis in 0..2 {
+                let (x, v) = (2 + 2 * axis, 3 + 2 * axis);
+                // dx/dt = v
+                j[x][2 + v] = 1.0;
+                // dv/dt = -wn^2 (x - r_ss(u)) - 2 zeta wn v
+                j[v][2 + x] = -wn * wn;
+                j[v][2 + v] = -2.0 * fl.zeta * wn;
+                j[v][0] = wn * wn * jac[axis][0];
+                j[v][1] = wn * wn * jac[axis][1];
+            }
+        }
+        j
     }
 
     /// Radii state \[mm\].
@@ -322,10 +419,21 @@ impl Plant {
         }
     }
 
+    /// The observed radii r1, r2 \[mm\] alone (what [`Plant::outputs`] reports, without
+    /// copying the steady point): the state of ODE (4) when no effect is on.
+    #[inline]
+    pub fn observed_radii(&self) -> [f64; 2] {
+        if self.plain {
+            return self.r;
+        }
+        let o = self.outputs();
+        [o.r1, o.r2]
+    }
+
     /// Outputs at the current instant (every enabled effect applied).
     pub fn outputs(&self) -> PlantOutputs {
         let fx = &self.model.effects;
-        if fx.is_empty() {
+        if self.plain {
             return PlantOutputs {
                 r1: self.r[0],
                 r2: self.r[1],

@@ -9,9 +9,9 @@
 //! (`examples/pid_tracking.py`, this FMU) compute the same commands.
 //!
 //! Layout: the variable table and the XML generated from it are in `variables`, the state
-//! type in `state`, the unit tests in `tests`; this file is the instance (its fields, how it is
-//! built, and the FMI calls of `FmuModel` that map variables onto the controller), one cohesive
-//! thing of about 700 lines.
+//! type in `state`, reading configuration files in `config`, the C symbols in `ffi`, the unit
+//! tests in `tests`; this file is the instance (its fields, how it is built, and the calls of
+//! `FmuModel` that map variables onto the controller).
 //!
 //! # Interface (SI, display units for people)
 //!
@@ -75,25 +75,32 @@
 //! length), which the generic shell encodes and checks; restoring rebuilds the controller and
 //! restores that state, bit-identically. In-memory states (`fmi2GetFMUstate`) are plain clones.
 
-// The fmi2* forwarders that `export_fmi2!` expands here are unsafe fns: every unsafe call
+// The fmi2*/fmi3* forwarders that `export_fmu!` expands here are unsafe fns: every unsafe call
 // in them has its own block and SAFETY comment.
 #![deny(unsafe_op_in_unsafe_fn)]
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::LazyLock;
 
 use magswarm_control::{inverse_with, Controller, ControllerSnapshot, InverseOptions, PidConfig};
-use magswarm_fmi2::units;
-use magswarm_fmi2::{
-    Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo, Start,
-    UnitDefinition, VarType, Variable, XmlOptions,
+use magswarm_fmi::units;
+use magswarm_fmi::{
+    Ctx, DefaultExperiment, FmuModel, InstantiateArgs, LogCategory, ModelError, ModelInfo, Start,
+    UnitDefinition, VarType, Variable,
 };
 use magswarm_model::Model;
 use serde::{Deserialize, Serialize};
 
+use config::{first_absurd_number, load_config};
+
+mod config;
 mod state;
 #[cfg(test)]
 mod tests;
+// The C symbols live in their own module (their own codegen unit), so that linking this
+// crate as an rlib next to another FMU crate never pulls them in.
+#[cfg(feature = "export")]
+mod ffi;
 mod variables;
 
 pub use state::{MagSwarmPidState, RunningState};
@@ -133,30 +140,10 @@ pub struct MagSwarmPid {
     goal_for: [f64; 2],
 }
 
-fn read_json_resource(dir: Option<&Path>, name: &str) -> Option<PathBuf> {
-    dir.map(|d| d.join(name)).filter(|p| p.is_file())
-}
-
-fn load_config(path: &Path) -> Result<PidConfig, Fmi2Err> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Fmi2Err::error(format!("cannot read {}: {e}", path.display())))?;
-    PidConfig::from_json(&text).map_err(|e| Fmi2Err::error(format!("{}: {e}", path.display())))
-}
-
-/// The first number in `v` whose magnitude exceeds `max` (or that is not finite).
-fn first_absurd_number(v: &serde_json::Value, max: f64) -> Option<f64> {
-    match v {
-        serde_json::Value::Number(n) => n.as_f64().filter(|x| x.is_nan() || x.abs() > max),
-        serde_json::Value::Array(a) => a.iter().find_map(|x| first_absurd_number(x, max)),
-        serde_json::Value::Object(o) => o.values().find_map(|x| first_absurd_number(x, max)),
-        _ => None,
-    }
-}
-
 impl MagSwarmPid {
     /// A fresh instance; defaults from `resource_dir/model.json` and `resource_dir/pid.json`
     /// when present.
-    pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarmPid, Fmi2Err> {
+    pub fn new(resource_dir: Option<&Path>) -> Result<MagSwarmPid, ModelError> {
         Self::with_resources(resource_dir, None)
     }
 
@@ -166,25 +153,14 @@ impl MagSwarmPid {
     pub fn with_resources(
         resource_dir: Option<&Path>,
         packaged: Option<&Path>,
-    ) -> Result<MagSwarmPid, Fmi2Err> {
-        for name in [RESOURCE_MODEL, RESOURCE_CONFIG] {
-            let baked = packaged.map(|d| d.join(name)).filter(|p| p.is_file());
-            if let (Some(b), None) = (baked, read_json_resource(resource_dir, name)) {
-                return Err(Fmi2Err::error(format!(
-                    "this FMU was packaged with {} but the resource location passed to \
-                     fmi2Instantiate ({}) holds no {name}; refusing to run with the built-in \
-                     defaults instead (pass the unpacked FMU's resources folder as \
-                     fmuResourceLocation)",
-                    b.display(),
-                    resource_dir.map_or("none".to_string(), |d| d.display().to_string())
-                )));
-            }
-        }
-        let default_model = match read_json_resource(resource_dir, RESOURCE_MODEL) {
-            Some(p) => Model::load(&p).map_err(|e| Fmi2Err::error(format!("resources: {e}")))?,
+    ) -> Result<MagSwarmPid, ModelError> {
+        let resource = |name| magswarm_fmi::uri::packaged_resource(resource_dir, packaged, name);
+        let (model_json, config_json) = (resource(RESOURCE_MODEL)?, resource(RESOURCE_CONFIG)?);
+        let default_model = match model_json {
+            Some(p) => Model::load(&p).map_err(|e| ModelError::error(format!("resources: {e}")))?,
             None => Model::paper(),
         };
-        let default_cfg = match read_json_resource(resource_dir, RESOURCE_CONFIG) {
+        let default_cfg = match config_json {
             Some(p) => load_config(&p)?,
             None => PidConfig::default(),
         };
@@ -263,7 +239,7 @@ impl MagSwarmPid {
     }
 
     /// One controller sample with the inputs in force.
-    fn sample(&mut self, ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+    fn sample(&mut self, ctx: &mut Ctx<'_>) -> Result<(), ModelError> {
         let y = [self.y[0] * 1e3, self.y[1] * 1e3];
         let sp = self.setpoint_mm();
         for (name, v) in [
@@ -273,7 +249,7 @@ impl MagSwarmPid {
             ("r2_ref", sp[1]),
         ] {
             if v <= 0.0 {
-                return Err(Fmi2Err::error(format!(
+                return Err(ModelError::error(format!(
                     "{name} = {v} mm at sample {}: radii must be positive",
                     self.k
                 )));
@@ -284,7 +260,7 @@ impl MagSwarmPid {
         self.apply(y, sp);
         if !(self.u.iter().chain(&self.goal).all(|x| x.is_finite()) && self.distance.is_finite()) {
             (self.u, self.goal, self.distance) = before;
-            return Err(Fmi2Err::error(format!(
+            return Err(ModelError::error(format!(
                 "the controller produced a non-finite command at sample {} from r1 = {} mm, \
                  r2 = {} mm, r1_ref = {} mm, r2_ref = {} mm; outputs keep their last values",
                 self.k - 1,
@@ -331,7 +307,7 @@ impl MagSwarmPid {
     /// A restored state must be one this FMU could have reached: the same checks as set
     /// values and configurations get, plus finite controller internals (a checksum proves the
     /// bytes intact, not honest).
-    fn validate_restored(&self) -> Result<(), Fmi2Err> {
+    fn validate_restored(&self) -> Result<(), ModelError> {
         check_abs("z_start", self.z_start, MAX_Z_START, "m")?;
         check_abs("omega_start", self.omega_start, MAX_OMEGA_START, "rad/s")?;
         for (name, v) in [
@@ -358,9 +334,9 @@ impl MagSwarmPid {
                 check_abs(name, v, MAX_OMEGA_START, "(SI)")?;
             }
             let snap = serde_json::to_value(ctrl.snapshot())
-                .map_err(|e| Fmi2Err::error(format!("controller state: {e}")))?;
+                .map_err(|e| ModelError::error(format!("controller state: {e}")))?;
             if let Some(x) = first_absurd_number(&snap, 1e12) {
-                return Err(Fmi2Err::error(format!(
+                return Err(ModelError::error(format!(
                     "controller state holds {x}, beyond any value the controller reaches"
                 )));
             }
@@ -368,11 +344,11 @@ impl MagSwarmPid {
         Ok(())
     }
 
-    fn build_controller(&mut self) -> Result<(), Fmi2Err> {
+    fn build_controller(&mut self) -> Result<(), ModelError> {
         let cfg = self.effective_config();
         check_config(&cfg)?;
         let ctrl = Controller::new(self.model.clone(), cfg.clone())
-            .map_err(|e| Fmi2Err::error(e.to_string()))?;
+            .map_err(|e| ModelError::error(e.to_string()))?;
         self.cfg_init = Some(cfg);
         self.ctrl = Some(ctrl);
         self.k = 0;
@@ -386,7 +362,7 @@ impl FmuModel for MagSwarmPid {
         &INFO
     }
 
-    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, ModelError> {
         let m = MagSwarmPid::with_resources(args.resource_dir, args.packaged_resources)?;
         ctx.debug(
             "logConfig",
@@ -404,13 +380,13 @@ impl FmuModel for MagSwarmPid {
         _tolerance: Option<f64>,
         start_time: f64,
         _stop_time: Option<f64>,
-    ) -> Result<(), Fmi2Err> {
+    ) -> Result<(), ModelError> {
         check_abs("startTime", start_time, MAX_TIME, "s")?;
         self.t0 = start_time;
         Ok(())
     }
 
-    fn exit_initialization_mode(&mut self, ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+    fn exit_initialization_mode(&mut self, ctx: &mut Ctx<'_>) -> Result<(), ModelError> {
         self.build_controller()?;
         self.goal_for = [f64::NAN; 2];
         self.update_goal_before_start();
@@ -421,18 +397,18 @@ impl FmuModel for MagSwarmPid {
         Ok(())
     }
 
-    fn do_step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), Fmi2Err> {
+    fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
         let ts = self
             .ctrl
             .as_ref()
             .map(|c| c.sample_time())
-            .ok_or_else(|| Fmi2Err::error("doStep before initialisation"))?;
+            .ok_or_else(|| ModelError::error("doStep before initialisation"))?;
         let t_end = current_time + step;
         let eps = 1e-6 * ts;
         let next = self.t0 + self.k as f64 * ts;
         let needed = ((t_end - eps - next) / ts).ceil();
         if !next.is_finite() || needed > MAX_SAMPLES_PER_STEP as f64 {
-            return Err(Fmi2Err::error(format!(
+            return Err(ModelError::error(format!(
                 "a step to t = {t_end} s needs {needed} controller samples of sample_time = {ts} s \
                  from t = {next} s, more than the limit of {MAX_SAMPLES_PER_STEP} samples per \
                  fmi2DoStep; use communication steps of at most {} s",
@@ -447,7 +423,7 @@ impl FmuModel for MagSwarmPid {
         Ok(())
     }
 
-    fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         if let Some(i) = param_index(vr) {
             return Ok((PARAMS[i].get)(&self.effective_config()));
         }
@@ -471,11 +447,11 @@ impl FmuModel for MagSwarmPid {
             vr::OMEGA_M_FF => last.map_or(self.u[1], |l| l.feedforward[1]),
             vr::Z_START => self.z_start,
             vr::OMEGA_START => self.omega_start,
-            other => return Err(Fmi2Err::unknown_vr(VarType::Real, other)),
+            other => return Err(ModelError::unknown_vr(VarType::Real, other)),
         })
     }
 
-    fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), Fmi2Err> {
+    fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
         if let Some(i) = param_index(vr) {
             let p = &PARAMS[i];
             // Through the configuration's own units (mm), so an overflow there is caught too.
@@ -488,7 +464,7 @@ impl FmuModel for MagSwarmPid {
                 cfg.gains = ctrl.config().gains;
                 (p.set)(&mut cfg, value);
                 cfg.validate()
-                    .map_err(|e| Fmi2Err::error(format!("{}: {e}", p.name)))?;
+                    .map_err(|e| ModelError::error(format!("{}: {e}", p.name)))?;
                 ctrl.set_gains(cfg.gains);
                 self.set_override(i, value);
                 return Ok(());
@@ -526,12 +502,12 @@ impl FmuModel for MagSwarmPid {
                 check_abs("omega_start", value, MAX_OMEGA_START, "rad/s")?;
                 self.omega_start = value
             }
-            other => return Err(Fmi2Err::unknown_vr(VarType::Real, other)),
+            other => return Err(ModelError::unknown_vr(VarType::Real, other)),
         }
         Ok(())
     }
 
-    fn get_boolean(&mut self, vr: u32) -> Result<bool, Fmi2Err> {
+    fn get_boolean(&mut self, vr: u32) -> Result<bool, ModelError> {
         if self.k == 0 {
             self.update_goal_before_start();
         }
@@ -544,11 +520,11 @@ impl FmuModel for MagSwarmPid {
             vr::CONDITIONAL_INTEGRATION => {
                 Ok(self.effective_config().gains.conditional_integration)
             }
-            other => Err(Fmi2Err::unknown_vr(VarType::Boolean, other)),
+            other => Err(ModelError::unknown_vr(VarType::Boolean, other)),
         }
     }
 
-    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: bool) -> Result<(), Fmi2Err> {
+    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: bool) -> Result<(), ModelError> {
         match vr {
             vr::FEEDFORWARD => {
                 self.feedforward = (value != self.default_cfg.feedforward).then_some(value);
@@ -564,34 +540,34 @@ impl FmuModel for MagSwarmPid {
                         (value != self.default_cfg.gains.conditional_integration).then_some(value);
                 }
             }
-            other => return Err(Fmi2Err::unknown_vr(VarType::Boolean, other)),
+            other => return Err(ModelError::unknown_vr(VarType::Boolean, other)),
         }
         Ok(())
     }
 
-    fn get_integer(&mut self, vr: u32) -> Result<i32, Fmi2Err> {
+    fn get_integer(&mut self, vr: u32) -> Result<i32, ModelError> {
         match vr {
             vr::SAMPLES => Ok(self.k.min(i32::MAX as u64) as i32),
-            other => Err(Fmi2Err::unknown_vr(VarType::Integer, other)),
+            other => Err(ModelError::unknown_vr(VarType::Integer, other)),
         }
     }
 
-    fn get_string(&mut self, vr: u32) -> Result<String, Fmi2Err> {
+    fn get_string(&mut self, vr: u32) -> Result<String, ModelError> {
         match vr {
             vr::MODEL_FILE => Ok(self.model_file.clone()),
             vr::CONFIG_FILE => Ok(self.config_file.clone()),
-            other => Err(Fmi2Err::unknown_vr(VarType::String, other)),
+            other => Err(ModelError::unknown_vr(VarType::String, other)),
         }
     }
 
-    fn set_string(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: &str) -> Result<(), Fmi2Err> {
+    fn set_string(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: &str) -> Result<(), ModelError> {
         match vr {
             vr::MODEL_FILE => {
                 self.model = if value.is_empty() {
                     self.default_model.clone()
                 } else {
                     Model::load(Path::new(value))
-                        .map_err(|e| Fmi2Err::error(format!("model_file: {e}")))?
+                        .map_err(|e| ModelError::error(format!("model_file: {e}")))?
                 };
                 self.model_file = value.to_string();
                 self.goal_for = [f64::NAN; 2];
@@ -605,20 +581,20 @@ impl FmuModel for MagSwarmPid {
                     self.default_cfg.clone()
                 } else {
                     load_config(Path::new(value))
-                        .map_err(|e| Fmi2Err::error(format!("config_file: {}", e.message)))?
+                        .map_err(|e| ModelError::error(format!("config_file: {}", e.message)))?
                 };
                 self.config_file = value.to_string();
                 self.goal_for = [f64::NAN; 2];
                 ctx.debug("logConfig", format!("config_file {value:?} loaded"));
             }
-            other => return Err(Fmi2Err::unknown_vr(VarType::String, other)),
+            other => return Err(ModelError::unknown_vr(VarType::String, other)),
         }
         Ok(())
     }
 
     type State = MagSwarmPidState;
 
-    fn save_state(&self) -> Result<MagSwarmPidState, Fmi2Err> {
+    fn save_state(&self) -> Result<MagSwarmPidState, ModelError> {
         let running = match (&self.cfg_init, &self.ctrl) {
             (Some(cfg), Some(ctrl)) => Some(RunningState {
                 cfg: cfg.clone(),
@@ -648,8 +624,8 @@ impl FmuModel for MagSwarmPid {
         })
     }
 
-    fn restore_state(&mut self, s: MagSwarmPidState) -> Result<(), Fmi2Err> {
-        let bad = |e: String| Fmi2Err::error(format!("FMU state: {e}"));
+    fn restore_state(&mut self, s: MagSwarmPidState) -> Result<(), ModelError> {
+        let bad = |e: String| ModelError::error(format!("FMU state: {e}"));
         s.model.validate().map_err(|e| bad(format!("model: {e}")))?;
         s.base_cfg
             .validate()
@@ -701,33 +677,14 @@ impl FmuModel for MagSwarmPid {
 
     /// The outputs change only in doStep, so within a communication point they do not depend
     /// on the inputs: the directional derivatives with respect to inputs are exactly zero.
-    fn directional_derivative(
-        &mut self,
-        unknowns: &[u32],
-        knowns: &[u32],
-        _dv_known: &[f64],
-    ) -> Result<Vec<f64>, Fmi2Err> {
+    fn jacobian(&mut self, unknowns: &[u32], knowns: &[u32]) -> Result<Vec<f64>, ModelError> {
         for k in knowns {
             if ![vr::R1_REF, vr::R2_REF, vr::R1, vr::R2].contains(k) {
-                return Err(Fmi2Err::error(format!(
+                return Err(ModelError::error(format!(
                     "directional derivative: value reference {k} is not an input"
                 )));
             }
         }
-        Ok(vec![0.0; unknowns.len()])
+        Ok(vec![0.0; unknowns.len() * knowns.len()])
     }
 }
-
-#[cfg(feature = "export")]
-magswarm_fmi2::export_fmi2!(MagSwarmPid);
-
-// Packaging asks the compiled library for its own XML (`fmu_model_description`), with the
-// parameter start values of the controller configuration JSON to bake in.
-#[cfg(feature = "export")]
-magswarm_fmi2::export_describe!(|json: Option<&str>| {
-    let cfg = match json {
-        None => PidConfig::default(),
-        Some(text) => PidConfig::from_json(text).ok()?,
-    };
-    Some(model_description(&cfg, None))
-});

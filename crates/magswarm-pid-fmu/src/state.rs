@@ -1,4 +1,4 @@
-//! The controller FMU's state as data ([`magswarm_fmi2::FmuModel::State`]): the shell encodes,
+//! The controller FMU's state as data ([`magswarm_fmi::FmuModel::State`]): the shell encodes,
 //! frames and checks it; restoring validates it like set values.
 
 use super::*;

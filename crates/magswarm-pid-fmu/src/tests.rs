@@ -51,7 +51,7 @@ fn same_commands_as_the_library_controller() {
     fmu.y = [y[0] * 1e-3, y[1] * 1e-3];
     for k in 0..20 {
         let t = k as f64 * 0.05;
-        fmu.do_step(&mut ctx, t, 0.05).unwrap();
+        fmu.step(&mut ctx, t, 0.05).unwrap();
         let (z, w) = ctrl.step([fmu.y[0] * 1e3, fmu.y[1] * 1e3], [8.0, 11.0]);
         assert!(
             (fmu.u[0] - z).abs() < 1e-15 && (fmu.u[1] - w).abs() < 1e-12,
@@ -65,13 +65,13 @@ fn same_commands_as_the_library_controller() {
 fn non_multiple_steps_sample_at_the_sample_instants() {
     let mut fmu = ready();
     let mut ctx = Ctx::silent();
-    fmu.do_step(&mut ctx, 0.0, 0.02).unwrap(); // sample 0 at t = 0
+    fmu.step(&mut ctx, 0.0, 0.02).unwrap(); // sample 0 at t = 0
     assert_eq!(fmu.k, 1);
-    fmu.do_step(&mut ctx, 0.02, 0.02).unwrap(); // none in [0.02, 0.04)
+    fmu.step(&mut ctx, 0.02, 0.02).unwrap(); // none in [0.02, 0.04)
     assert_eq!(fmu.k, 1);
-    fmu.do_step(&mut ctx, 0.04, 0.02).unwrap(); // t = 0.05
+    fmu.step(&mut ctx, 0.04, 0.02).unwrap(); // t = 0.05
     assert_eq!(fmu.k, 2);
-    fmu.do_step(&mut ctx, 0.06, 0.2).unwrap(); // 0.1, 0.15, 0.2, 0.25
+    fmu.step(&mut ctx, 0.06, 0.2).unwrap(); // 0.1, 0.15, 0.2, 0.25
     assert_eq!(fmu.k, 6);
 }
 
@@ -85,27 +85,25 @@ fn state_round_trips_through_bytes_at_a_fixed_size() {
             fmu.set_real(&mut ctx, vr::PARAM_BASE + 1, 0.5).unwrap(); // kp_r1, bumpless
         }
         fmu.y = [0.008 + 1e-5 * k as f64, 0.011];
-        fmu.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+        fmu.step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
     }
-    let guid = magswarm_fmi2::guid::guid_u128(MagSwarmPid::model_info());
-    let shell = magswarm_fmi2::snapshot::ShellState::fresh();
-    let bytes = magswarm_fmi2::snapshot::serialize(guid, &shell, &fmu).unwrap();
-    let (_, mut other) = magswarm_fmi2::snapshot::deserialize(guid, &bytes, ready()).unwrap();
+    let guid = magswarm_fmi::guid::guid_u128(MagSwarmPid::model_info());
+    let shell = magswarm_fmi::snapshot::ShellState::fresh();
+    let bytes = magswarm_fmi::snapshot::serialize(guid, &shell, &fmu).unwrap();
+    let (_, mut other) = magswarm_fmi::snapshot::deserialize(guid, &bytes, ready()).unwrap();
     assert_eq!(other.k, fmu.k);
     assert_eq!(other.u, fmu.u);
     for k in 40..60 {
-        fmu.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
-        other.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+        fmu.step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+        other.step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
         assert_eq!(other.u, fmu.u, "sample {k}");
     }
-    assert!(
-        magswarm_fmi2::snapshot::deserialize(guid, &bytes[..bytes.len() - 3], ready()).is_err()
-    );
+    assert!(magswarm_fmi::snapshot::deserialize(guid, &bytes[..bytes.len() - 3], ready()).is_err());
     // The state does not grow with the run (no sample history).
     for k in 60..600 {
-        fmu.do_step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
+        fmu.step(&mut ctx, k as f64 * 0.05, 0.05).unwrap();
     }
-    let later = magswarm_fmi2::snapshot::serialize(guid, &shell, &fmu).unwrap();
+    let later = magswarm_fmi::snapshot::serialize(guid, &shell, &fmu).unwrap();
     assert!(
         later.len() < bytes.len() + 64,
         "{} -> {}",

@@ -3,6 +3,7 @@
 //! binary's behaviour and the XML.
 
 use super::*;
+use magswarm_fmi::FmiVersion;
 
 /// Model identifier (file name of the shared library and of the FMU).
 pub const MODEL_IDENTIFIER: &str = "MagSwarmPID";
@@ -116,31 +117,31 @@ pub const MAX_TIME: f64 = 1e12;
 
 /// Whether every numeric parameter of `cfg` lies in its [`ParamSpec::range`] and the
 /// configuration is consistent ([`PidConfig::validate`]); the error names the parameter.
-pub fn check_config(cfg: &PidConfig) -> Result<(), Fmi2Err> {
+pub fn check_config(cfg: &PidConfig) -> Result<(), ModelError> {
     for p in PARAMS {
         check_param(p, (p.get)(cfg))?;
     }
     cfg.validate()
-        .map_err(|e| Fmi2Err::error(format!("controller configuration: {e}")))
+        .map_err(|e| ModelError::error(format!("controller configuration: {e}")))
 }
 
-pub(crate) fn check_param(p: &ParamSpec, v: f64) -> Result<(), Fmi2Err> {
+pub(crate) fn check_param(p: &ParamSpec, v: f64) -> Result<(), ModelError> {
     let (lo, hi) = p.range;
     if v >= lo && v <= hi {
         Ok(())
     } else {
-        Err(Fmi2Err::error(format!(
+        Err(ModelError::error(format!(
             "{} = {v} {} is outside the accepted range [{lo}, {hi}] {}",
             p.name, p.unit, p.unit
         )))
     }
 }
 
-pub(crate) fn check_abs(name: &str, v: f64, max: f64, unit: &str) -> Result<(), Fmi2Err> {
+pub(crate) fn check_abs(name: &str, v: f64, max: f64, unit: &str) -> Result<(), ModelError> {
     if v.is_finite() && v.abs() <= max {
         Ok(())
     } else {
-        Err(Fmi2Err::error(format!(
+        Err(ModelError::error(format!(
             "{name} = {v} {unit} is outside the accepted range [-{max}, {max}] {unit}"
         )))
     }
@@ -241,7 +242,7 @@ pub(crate) fn build_variables() -> Vec<Variable> {
     let m = |v: Variable| v.unit("m").display_unit("mm").nominal(0.01);
     let out = |v: Variable| {
         v.output()
-            .variability(magswarm_fmi2::Variability::Discrete)
+            .variability(magswarm_fmi::Variability::Discrete)
             .depends_on(NONE)
     };
     let mut v = vec![
@@ -353,7 +354,7 @@ pub(crate) static INFO: LazyLock<ModelInfo> = LazyLock::new(|| ModelInfo {
     }),
     units: UNITS,
     log_categories: LOG_CATEGORIES,
-    variables: magswarm_fmi2::unload::leak(build_variables()),
+    variables: magswarm_fmi::unload::leak(build_variables()),
 });
 
 /// The static model information (variable table, units).
@@ -364,6 +365,15 @@ pub fn model_info() -> &'static ModelInfo {
 /// The modelDescription.xml of an FMU whose default configuration is `baked` (the parameter
 /// start values are its values).
 pub fn model_description(baked: &PidConfig, generated_at: Option<String>) -> String {
+    model_description_for(baked, generated_at, FmiVersion::V2)
+}
+
+/// [`model_description`] in FMI `version`.
+pub fn model_description_for(
+    baked: &PidConfig,
+    generated_at: Option<String>,
+    version: FmiVersion,
+) -> String {
     let mut overrides: Vec<(u32, Start)> = PARAMS
         .iter()
         .enumerate()
@@ -374,8 +384,9 @@ pub fn model_description(baked: &PidConfig, generated_at: Option<String>) -> Str
         vr::CONDITIONAL_INTEGRATION,
         Start::Boolean(baked.gains.conditional_integration),
     ));
-    magswarm_fmi2::model_description_xml::<MagSwarmPid>(&XmlOptions {
+    let options = magswarm_fmi::xml::XmlOptions {
         generation_date_and_time: generated_at,
         start_overrides: overrides,
-    })
+    };
+    magswarm_fmi::model_description_xml::<MagSwarmPid>(version, &options)
 }

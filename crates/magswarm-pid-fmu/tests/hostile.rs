@@ -5,8 +5,8 @@
 
 use std::time::{Duration, Instant};
 
-use magswarm_fmi2::host::Host;
-use magswarm_fmi2::{Fmi2Status, Mode};
+use magswarm_fmi::fmi2::host::Host;
+use magswarm_fmi::fmi2::{Fmi2Status, Mode};
 use magswarm_pid_fmu::{vr, MagSwarmPid, MagSwarmPidState, RunningState, PARAMS};
 
 use Fmi2Status::{Error, Ok as OK};
@@ -197,19 +197,19 @@ fn forgeries(good: &MagSwarmPidState) -> Vec<(&'static str, MagSwarmPidState)> {
 
 #[test]
 fn forged_controller_states_are_refused() {
-    use magswarm_fmi2::FmuModel;
+    use magswarm_fmi::fmi2::FmuModel;
     let mut m = MagSwarmPid::new(None).unwrap();
-    let mut ctx = magswarm_fmi2::Ctx::silent();
+    let mut ctx = magswarm_fmi::fmi2::Ctx::silent();
     m.setup_experiment(&mut ctx, None, 0.0, None).unwrap();
     m.exit_initialization_mode(&mut ctx).unwrap();
-    m.do_step(&mut ctx, 0.0, 0.5).unwrap();
+    m.step(&mut ctx, 0.0, 0.5).unwrap();
     let good = m.save_state().unwrap();
     assert!(m.clone().restore_state(good.clone()).is_ok());
     for (what, forged) in forgeries(&good) {
         let mut victim = m.clone();
         let t0 = Instant::now();
         let r = victim.restore_state(forged);
-        let r = r.and_then(|_| victim.do_step(&mut ctx, 0.5, 0.05));
+        let r = r.and_then(|_| victim.step(&mut ctx, 0.5, 0.05));
         assert!(r.is_err(), "{what} was accepted");
         assert!(t0.elapsed() < Duration::from_secs(2), "{what}");
     }
@@ -219,8 +219,11 @@ fn forged_controller_states_are_refused() {
 /// message saying so (its XML has no `<ModelExchange>` element either).
 #[test]
 fn model_exchange_is_refused_by_the_co_simulation_only_pid() {
-    let r =
-        Host::<MagSwarmPid>::instantiate_as("pid", None, magswarm_fmi2::abi::FMI2_MODEL_EXCHANGE);
+    let r = Host::<MagSwarmPid>::instantiate_as(
+        "pid",
+        None,
+        magswarm_fmi::fmi2::abi::FMI2_MODEL_EXCHANGE,
+    );
     let log = r.err().expect("refused");
     assert!(
         log.iter().any(|e| e.message.contains("Co-Simulation only")),

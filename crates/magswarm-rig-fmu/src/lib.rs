@@ -35,7 +35,7 @@ use magswarm_bridge::config::RigConfig;
 use magswarm_bridge::safety::Fault;
 use magswarm_bridge::session::{RigSession, SessionOptions};
 use magswarm_bridge::watchdog;
-use magswarm_fmi2::{Ctx, Fmi2Err, FmuModel, InstantiateArgs, ModelInfo, VarType};
+use magswarm_fmi2::{Ctx, FmuModel, InstantiateArgs, ModelError, ModelInfo, VarType};
 
 use table::{vr, LOG_RIG, MAX_LATE_DEFAULT, RESOURCE_CONFIG};
 
@@ -89,8 +89,8 @@ fn var_name(v: u32) -> &'static str {
 }
 
 /// The fault as the importer sees it: `fmi2Error`, its name first.
-fn fault_error(f: &Fault) -> Fmi2Err {
-    Fmi2Err::error(format!(
+fn fault_error(f: &Fault) -> ModelError {
+    ModelError::error(format!(
         "rig fault {}: {f}; the stepper is stopped and the robot holds (the fault stays \
          latched: check the rig, then start a new simulation)",
         f.name()
@@ -99,7 +99,7 @@ fn fault_error(f: &Fault) -> Fmi2Err {
 
 /// The watchdog program shipped in `resources/`, made executable (importers unzip without
 /// file modes); a copy in the temporary folder when `resources/` is read-only.
-fn watchdog_program(resources: &Path) -> Result<Option<PathBuf>, Fmi2Err> {
+fn watchdog_program(resources: &Path) -> Result<Option<PathBuf>, ModelError> {
     use std::os::unix::fs::PermissionsExt;
     let p = resources.join(watchdog::PROGRAM);
     if !p.is_file() {
@@ -118,7 +118,7 @@ fn watchdog_program(resources: &Path) -> Result<Option<PathBuf>, Fmi2Err> {
     std::fs::copy(&p, &copy)
         .and_then(|_| std::fs::set_permissions(&copy, std::fs::Permissions::from_mode(0o755)))
         .map_err(|e| {
-            Fmi2Err::error(format!(
+            ModelError::error(format!(
                 "{} is not executable and cannot be copied to {}: {e}",
                 p.display(),
                 copy.display()
@@ -129,10 +129,10 @@ fn watchdog_program(resources: &Path) -> Result<Option<PathBuf>, Fmi2Err> {
 
 impl RigFmu {
     /// An instance whose rig config is `resources/rig.toml`.
-    pub fn new(resources: &Path) -> Result<RigFmu, Fmi2Err> {
+    pub fn new(resources: &Path) -> Result<RigFmu, ModelError> {
         let path = resources.join(RESOURCE_CONFIG);
         let cfg = RigConfig::load(&path).map_err(|e| {
-            Fmi2Err::error(format!(
+            ModelError::error(format!(
                 "the rig config of this FMU: {e} (build the FMU with `magswarm-bridge fmu \
                  --config RIG.toml`)"
             ))
@@ -188,7 +188,7 @@ impl FmuModel for RigFmu {
         table::model_info()
     }
 
-    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, ModelError> {
         let has = |d: &Path| d.join(RESOURCE_CONFIG).is_file();
         let dir = match (args.resource_dir, args.packaged_resources) {
             (Some(d), _) if has(d) => d,
@@ -202,7 +202,7 @@ impl FmuModel for RigFmu {
                 p
             }
             _ => {
-                return Err(Fmi2Err::error(format!(
+                return Err(ModelError::error(format!(
                     "no {RESOURCE_CONFIG} in the resources of this FMU (resource location {}): \
                      build it with `magswarm-bridge fmu --config RIG.toml --out MagSwarmRig.fmu`",
                     args.resource_location.unwrap_or("none")
@@ -223,13 +223,13 @@ impl FmuModel for RigFmu {
         _tolerance: Option<f64>,
         start_time: f64,
         _stop_time: Option<f64>,
-    ) -> Result<(), Fmi2Err> {
+    ) -> Result<(), ModelError> {
         self.t_start = start_time;
         Ok(())
     }
 
-    fn exit_initialization_mode(&mut self, ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
-        let mut cfg = params::apply(&self.cfg, &self.set, var_name).map_err(Fmi2Err::error)?;
+    fn exit_initialization_mode(&mut self, ctx: &mut Ctx<'_>) -> Result<(), ModelError> {
+        let mut cfg = params::apply(&self.cfg, &self.set, var_name).map_err(ModelError::error)?;
         if cfg.stepper.watchdog_exe.is_none() {
             cfg.stepper.watchdog_exe = watchdog_program(&self.resources)?;
         }
@@ -239,7 +239,7 @@ impl FmuModel for RigFmu {
             first_step_within: Duration::from_secs_f64(FIRST_STEP_WITHIN_S),
         };
         let s = RigSession::open(&cfg, &opts)
-            .map_err(|e| Fmi2Err::error(format!("the rig could not be opened: {e:#}")))?;
+            .map_err(|e| ModelError::error(format!("the rig could not be opened: {e:#}")))?;
         for l in &s.description {
             ctx.debug(LOG_RIG, l);
         }
@@ -249,9 +249,9 @@ impl FmuModel for RigFmu {
         Ok(())
     }
 
-    fn do_step(&mut self, ctx: &mut Ctx<'_>, t: f64, h: f64) -> Result<(), Fmi2Err> {
+    fn step(&mut self, ctx: &mut Ctx<'_>, t: f64, h: f64) -> Result<(), ModelError> {
         let Some(s) = &self.session else {
-            return Err(Fmi2Err::error("the rig is not open (terminated)"));
+            return Err(ModelError::error("the rig is not open (terminated)"));
         };
         let u = (self.z_m * 1e3, self.omega / TAU);
         let r = s
@@ -281,7 +281,7 @@ impl FmuModel for RigFmu {
         Ok(())
     }
 
-    fn terminate(&mut self, ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+    fn terminate(&mut self, ctx: &mut Ctx<'_>) -> Result<(), ModelError> {
         let fault = self
             .session
             .as_ref()
@@ -300,7 +300,7 @@ impl FmuModel for RigFmu {
         }
     }
 
-    fn get_real(&mut self, v: u32) -> Result<f64, Fmi2Err> {
+    fn get_real(&mut self, v: u32) -> Result<f64, ModelError> {
         let o = &self.out;
         Ok(match v {
             vr::Z_M => self.z_m,
@@ -318,13 +318,13 @@ impl FmuModel for RigFmu {
             p if params::is_rig_parameter(p) => match self.set.get(&p) {
                 Some(x) => *x,
                 None => params::config_value(&self.cfg, p)
-                    .ok_or_else(|| Fmi2Err::unknown_vr(VarType::Real, p))?,
+                    .ok_or_else(|| ModelError::unknown_vr(VarType::Real, p))?,
             },
-            other => return Err(Fmi2Err::unknown_vr(VarType::Real, other)),
+            other => return Err(ModelError::unknown_vr(VarType::Real, other)),
         })
     }
 
-    fn set_real(&mut self, _ctx: &mut Ctx<'_>, v: u32, x: f64) -> Result<(), Fmi2Err> {
+    fn set_real(&mut self, _ctx: &mut Ctx<'_>, v: u32, x: f64) -> Result<(), ModelError> {
         match v {
             // Any finite request: the safety core clamps and rate limits it (z_m_applied,
             // omega_m_applied show what went out).
@@ -332,56 +332,58 @@ impl FmuModel for RigFmu {
             vr::OMEGA_M => self.omega = x,
             vr::MAX_LATE => {
                 if x <= 0.0 {
-                    return Err(Fmi2Err::error(format!("max_late = {x} s must be positive")));
+                    return Err(ModelError::error(format!(
+                        "max_late = {x} s must be positive"
+                    )));
                 }
                 self.max_late = x;
             }
             p if params::is_rig_parameter(p) => {
                 // Checked now against the config in force, and again at initialisation.
                 let one = BTreeMap::from([(p, x)]);
-                params::apply(&self.cfg, &one, var_name).map_err(Fmi2Err::error)?;
+                params::apply(&self.cfg, &one, var_name).map_err(ModelError::error)?;
                 self.set.insert(p, x);
             }
-            other => return Err(Fmi2Err::unknown_vr(VarType::Real, other)),
+            other => return Err(ModelError::unknown_vr(VarType::Real, other)),
         }
         Ok(())
     }
 
-    fn get_integer(&mut self, v: u32) -> Result<i32, Fmi2Err> {
+    fn get_integer(&mut self, v: u32) -> Result<i32, ModelError> {
         match v {
             vr::LATE_STEPS => Ok(self.late_steps),
-            other => Err(Fmi2Err::unknown_vr(VarType::Integer, other)),
+            other => Err(ModelError::unknown_vr(VarType::Integer, other)),
         }
     }
 
-    fn get_boolean(&mut self, v: u32) -> Result<bool, Fmi2Err> {
+    fn get_boolean(&mut self, v: u32) -> Result<bool, ModelError> {
         match v {
             vr::VALID => Ok(self.out.valid),
-            other => Err(Fmi2Err::unknown_vr(VarType::Boolean, other)),
+            other => Err(ModelError::unknown_vr(VarType::Boolean, other)),
         }
     }
 
-    fn get_string(&mut self, v: u32) -> Result<String, Fmi2Err> {
+    fn get_string(&mut self, v: u32) -> Result<String, ModelError> {
         match v {
             vr::CONFIG_FILE => Ok(self.config_file.clone()),
-            other => Err(Fmi2Err::unknown_vr(VarType::String, other)),
+            other => Err(ModelError::unknown_vr(VarType::String, other)),
         }
     }
 
-    fn set_string(&mut self, ctx: &mut Ctx<'_>, v: u32, value: &str) -> Result<(), Fmi2Err> {
+    fn set_string(&mut self, ctx: &mut Ctx<'_>, v: u32, value: &str) -> Result<(), ModelError> {
         match v {
             vr::CONFIG_FILE => {
                 self.cfg = if value.is_empty() {
                     self.baked.clone()
                 } else {
                     RigConfig::load(Path::new(value))
-                        .map_err(|e| Fmi2Err::error(format!("config_file: {e}")))?
+                        .map_err(|e| ModelError::error(format!("config_file: {e}")))?
                 };
                 self.config_file = value.to_string();
                 ctx.debug(LOG_RIG, format!("config_file {value:?} loaded"));
                 Ok(())
             }
-            other => Err(Fmi2Err::unknown_vr(VarType::String, other)),
+            other => Err(ModelError::unknown_vr(VarType::String, other)),
         }
     }
 
@@ -390,21 +392,12 @@ impl FmuModel for RigFmu {
     const CAN_GET_AND_SET_FMU_STATE: bool = false;
     const PROVIDES_DIRECTIONAL_DERIVATIVE: bool = false;
 
-    fn save_state(&self) -> Result<(), Fmi2Err> {
-        Err(Fmi2Err::error("a rig cannot save its state"))
+    fn save_state(&self) -> Result<(), ModelError> {
+        Err(ModelError::error("a rig cannot save its state"))
     }
 
-    fn restore_state(&mut self, _state: ()) -> Result<(), Fmi2Err> {
-        Err(Fmi2Err::error("a rig cannot go back to a saved state"))
-    }
-
-    fn directional_derivative(
-        &mut self,
-        _unknowns: &[u32],
-        _knowns: &[u32],
-        _dv_known: &[f64],
-    ) -> Result<Vec<f64>, Fmi2Err> {
-        Err(Fmi2Err::error("a rig has no Jacobian"))
+    fn restore_state(&mut self, _state: ()) -> Result<(), ModelError> {
+        Err(ModelError::error("a rig cannot go back to a saved state"))
     }
 }
 
@@ -414,7 +407,11 @@ magswarm_fmi2::export_fmi2!(RigFmu);
 // `magswarm-bridge fmu` asks the compiled library for its own XML, passing the text of the
 // rig config to bake in.
 #[cfg(feature = "export")]
-magswarm_fmi2::export_describe!(|toml: Option<&str>| {
+magswarm_fmi2::export_describe!(|toml: Option<&str>, fmi_version: u32| {
+    // FMI 2.0 Co-Simulation only.
+    if fmi_version != 2 {
+        return None;
+    }
     match toml {
         None => Some(magswarm_fmi2::model_description_xml::<RigFmu>(
             &Default::default(),

@@ -4,9 +4,9 @@
 
 #![allow(dead_code)]
 
-use magswarm_fmi2::units;
-use magswarm_fmi2::{
-    Ctx, DefaultExperiment, Fmi2Err, FmuModel, InstantiateArgs, LogCategory, ModelInfo,
+use magswarm_fmi_core::units;
+use magswarm_fmi_core::{
+    Ctx, DefaultExperiment, FmuModel, InstantiateArgs, LogCategory, ModelError, ModelInfo,
     NamingConvention, VarType, Variable,
 };
 
@@ -201,12 +201,12 @@ impl FmuModel for Lag {
         &INFO
     }
 
-    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, Fmi2Err> {
+    fn instantiate(ctx: &mut Ctx<'_>, args: &InstantiateArgs<'_>) -> Result<Self, ModelError> {
         if args.instance_name == "panic-in-constructor" {
             panic!("constructor asked to panic");
         }
         if args.instance_name == "fail-in-constructor" {
-            return Err(Fmi2Err::error("constructor asked to fail"));
+            return Err(ModelError::error("constructor asked to fail"));
         }
         ctx.debug("logLag", format!("resources at {:?}", args.resource_dir));
         Ok(Lag {
@@ -231,17 +231,17 @@ impl FmuModel for Lag {
         _tol: Option<f64>,
         start: f64,
         _stop: Option<f64>,
-    ) -> Result<(), Fmi2Err> {
+    ) -> Result<(), ModelError> {
         self.t = start;
         Ok(())
     }
 
-    fn exit_initialization_mode(&mut self, _ctx: &mut Ctx<'_>) -> Result<(), Fmi2Err> {
+    fn exit_initialization_mode(&mut self, _ctx: &mut Ctx<'_>) -> Result<(), ModelError> {
         self.y = self.y0;
         Ok(())
     }
 
-    fn do_step(&mut self, _ctx: &mut Ctx<'_>, t: f64, h: f64) -> Result<(), Fmi2Err> {
+    fn step(&mut self, _ctx: &mut Ctx<'_>, t: f64, h: f64) -> Result<(), ModelError> {
         if self.panic_now {
             panic!("do_step asked to panic at t = {t}");
         }
@@ -252,7 +252,7 @@ impl FmuModel for Lag {
         Ok(())
     }
 
-    fn get_real(&mut self, vr: u32) -> Result<f64, Fmi2Err> {
+    fn get_real(&mut self, vr: u32) -> Result<f64, ModelError> {
         Ok(match vr {
             U => self.u,
             Y => self.y,
@@ -262,11 +262,11 @@ impl FmuModel for Lag {
             K => self.k,
             TIME => self.t,
             OMEGA => self.omega,
-            _ => return Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+            _ => return Err(ModelError::unknown_vr(VarType::Real, vr)),
         })
     }
 
-    fn set_real(&mut self, ctx: &mut Ctx<'_>, vr: u32, x: f64) -> Result<(), Fmi2Err> {
+    fn set_real(&mut self, ctx: &mut Ctx<'_>, vr: u32, x: f64) -> Result<(), ModelError> {
         match vr {
             U => {
                 let outside = !(-5.0..=5.0).contains(&x);
@@ -278,51 +278,51 @@ impl FmuModel for Lag {
             }
             TAU => {
                 if x <= 0.0 {
-                    return Err(Fmi2Err::error(format!("tau must be > 0, got {x}")));
+                    return Err(ModelError::error(format!("tau must be > 0, got {x}")));
                 }
                 self.tau = x
             }
             Y0 => self.y0 = x,
             K => self.k = x,
             OMEGA => self.omega = x,
-            _ => return Err(Fmi2Err::unknown_vr(VarType::Real, vr)),
+            _ => return Err(ModelError::unknown_vr(VarType::Real, vr)),
         }
         Ok(())
     }
 
-    fn get_integer(&mut self, vr: u32) -> Result<i32, Fmi2Err> {
+    fn get_integer(&mut self, vr: u32) -> Result<i32, ModelError> {
         match vr {
             N_STEPS => Ok(self.n_steps),
-            _ => Err(Fmi2Err::unknown_vr(VarType::Integer, vr)),
+            _ => Err(ModelError::unknown_vr(VarType::Integer, vr)),
         }
     }
 
-    fn get_boolean(&mut self, vr: u32) -> Result<bool, Fmi2Err> {
+    fn get_boolean(&mut self, vr: u32) -> Result<bool, ModelError> {
         match vr {
             SATURATED => Ok(self.y.abs() > 10.0),
             PANIC_NOW => Ok(self.panic_now),
-            _ => Err(Fmi2Err::unknown_vr(VarType::Boolean, vr)),
+            _ => Err(ModelError::unknown_vr(VarType::Boolean, vr)),
         }
     }
 
-    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, v: bool) -> Result<(), Fmi2Err> {
+    fn set_boolean(&mut self, _ctx: &mut Ctx<'_>, vr: u32, v: bool) -> Result<(), ModelError> {
         match vr {
             PANIC_NOW => {
                 self.panic_now = v;
                 Ok(())
             }
-            _ => Err(Fmi2Err::unknown_vr(VarType::Boolean, vr)),
+            _ => Err(ModelError::unknown_vr(VarType::Boolean, vr)),
         }
     }
 
-    fn get_string(&mut self, vr: u32) -> Result<String, Fmi2Err> {
+    fn get_string(&mut self, vr: u32) -> Result<String, ModelError> {
         match vr {
             LABEL => Ok(self.label.clone()),
-            _ => Err(Fmi2Err::unknown_vr(VarType::String, vr)),
+            _ => Err(ModelError::unknown_vr(VarType::String, vr)),
         }
     }
 
-    fn set_string(&mut self, _ctx: &mut Ctx<'_>, vr: u32, v: &str) -> Result<(), Fmi2Err> {
+    fn set_string(&mut self, _ctx: &mut Ctx<'_>, vr: u32, v: &str) -> Result<(), ModelError> {
         match vr {
             LABEL => {
                 if v == "panic" {
@@ -331,13 +331,13 @@ impl FmuModel for Lag {
                 self.label = v.to_string();
                 Ok(())
             }
-            _ => Err(Fmi2Err::unknown_vr(VarType::String, vr)),
+            _ => Err(ModelError::unknown_vr(VarType::String, vr)),
         }
     }
 
     type State = LagState;
 
-    fn save_state(&self) -> Result<LagState, Fmi2Err> {
+    fn save_state(&self) -> Result<LagState, ModelError> {
         Ok(LagState {
             u: self.u,
             y: self.y,
@@ -353,9 +353,12 @@ impl FmuModel for Lag {
         })
     }
 
-    fn restore_state(&mut self, s: LagState) -> Result<(), Fmi2Err> {
+    fn restore_state(&mut self, s: LagState) -> Result<(), ModelError> {
         if !(s.tau > 0.0 && s.tau.is_finite()) {
-            return Err(Fmi2Err::error(format!("tau = {} must be positive", s.tau)));
+            return Err(ModelError::error(format!(
+                "tau = {} must be positive",
+                s.tau
+            )));
         }
         [
             self.u, self.y, self.tau, self.y0, self.k, self.omega, self.t,
@@ -367,20 +370,15 @@ impl FmuModel for Lag {
         Ok(())
     }
 
-    fn directional_derivative(
-        &mut self,
-        unknowns: &[u32],
-        knowns: &[u32],
-        dv: &[f64],
-    ) -> Result<Vec<f64>, Fmi2Err> {
-        let partial = |u: u32, k: u32| -> Result<f64, Fmi2Err> {
+    fn jacobian(&mut self, unknowns: &[u32], knowns: &[u32]) -> Result<Vec<f64>, ModelError> {
+        let partial = |u: u32, k: u32| -> Result<f64, ModelError> {
             Ok(match (u, k) {
                 (DER_Y, U) => self.k / self.tau,
                 (DER_Y, Y) => -1.0 / self.tau,
                 (Y, Y) => 1.0,
                 (Y, U) => 0.0,
                 _ => {
-                    return Err(Fmi2Err::error(format!(
+                    return Err(ModelError::error(format!(
                         "no partial derivative of vr {u} w.r.t. vr {k}"
                     )))
                 }
@@ -388,12 +386,8 @@ impl FmuModel for Lag {
         };
         unknowns
             .iter()
-            .map(|&u| {
-                knowns
-                    .iter()
-                    .zip(dv)
-                    .try_fold(0.0, |acc, (&k, &d)| Ok(acc + partial(u, k)? * d))
-            })
+            .flat_map(|&u| knowns.iter().map(move |&k| (u, k)))
+            .map(|(u, k)| partial(u, k))
             .collect()
     }
 }

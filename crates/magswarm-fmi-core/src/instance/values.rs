@@ -1,0 +1,234 @@
+//! Getting and setting variables: every reference checked against the table (type,
+//! causality, the mode) before any value is touched, non-finite Reals refused by name.
+//!
+//! The independent variable (time), if the table has one, is answered by the instance
+//! itself (its current time), never by the model.
+
+use std::ffi::CString;
+
+use super::Instance;
+use crate::log::Ctx;
+use crate::mode::may_set;
+use crate::model::FmuModel;
+use crate::status::{ModelError, Status};
+use crate::variable::{VarType, Variable};
+
+impl<M: FmuModel> Instance<M> {
+    fn check_get(&mut self, f: &'static str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+        for &vr in vrs {
+            if let Err(m) = self.table.typed(vr, ty) {
+                return Err(self.fail(f, Status::Error, m));
+            }
+        }
+        Ok(())
+    }
+
+    fn getter_error(&mut self, f: &'static str, var_vr: u32, e: ModelError) -> Status {
+        let name = self.table.get(var_vr).map_or("?", |v| v.name);
+        self.fail(
+            f,
+            e.status.max(Status::Error),
+            format!("variable \"{name}\": {}", e.message),
+        )
+    }
+
+    /// Get Reals (`fmi2GetReal`, `fmi3GetFloat64`).
+    pub fn get_real(&mut self, f: &'static str, vrs: &[u32], out: &mut [f64]) -> Status {
+        if let Err(s) = self.check_get(f, vrs, VarType::Real) {
+            return s;
+        }
+        let time_vr = self.table.independent();
+        for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+            if Some(vr) == time_vr {
+                *o = self.shell.time;
+                continue;
+            }
+            match self.model.get_real(vr) {
+                Ok(x) => *o = x,
+                Err(e) => return self.getter_error(f, vr, e),
+            }
+        }
+        Status::Ok
+    }
+
+    /// Get Integers (`fmi2GetInteger`, `fmi3GetInt32`).
+    pub fn get_integer(&mut self, f: &'static str, vrs: &[u32], out: &mut [i32]) -> Status {
+        if let Err(s) = self.check_get(f, vrs, VarType::Integer) {
+            return s;
+        }
+        for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+            match self.model.get_integer(vr) {
+                Ok(x) => *o = x,
+                Err(e) => return self.getter_error(f, vr, e),
+            }
+        }
+        Status::Ok
+    }
+
+    /// Get Booleans, written as the shell's C type (`fmi2Boolean` is an int, `fmi3Boolean`
+    /// a `bool`) from 1 or 0.
+    pub fn get_boolean<B: From<bool>>(
+        &mut self,
+        f: &'static str,
+        vrs: &[u32],
+        out: &mut [B],
+    ) -> Status {
+        if let Err(s) = self.check_get(f, vrs, VarType::Boolean) {
+            return s;
+        }
+        for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+            match self.model.get_boolean(vr) {
+                Ok(x) => *o = B::from(x),
+                Err(e) => return self.getter_error(f, vr, e),
+            }
+        }
+        Status::Ok
+    }
+
+    /// Get Strings: fills `out` with pointers into strings owned by the instance.
+    pub fn get_string(
+        &mut self,
+        f: &'static str,
+        vrs: &[u32],
+        out: &mut [*const std::ffi::c_char],
+    ) -> Status {
+        if let Err(s) = self.check_get(f, vrs, VarType::String) {
+            return s;
+        }
+        self.strings.clear();
+        for &vr in vrs {
+            match self.model.get_string(vr) {
+                Ok(s) => match CString::new(s) {
+                    Ok(c) => self.strings.push(c),
+                    Err(_) => {
+                        let e = ModelError::error("value contains a NUL character");
+                        return self.getter_error(f, vr, e);
+                    }
+                },
+                Err(e) => return self.getter_error(f, vr, e),
+            }
+        }
+        for (o, c) in out.iter_mut().zip(&self.strings) {
+            *o = c.as_ptr();
+        }
+        Status::Ok
+    }
+
+    /// Check every reference before setting anything, so a bad call leaves no variable
+    /// half-set.
+    fn check_set(&mut self, f: &'static str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+        let mode = self.shell.mode;
+        for &vr in vrs {
+            let var: &Variable = match self.table.typed(vr, ty) {
+                Ok(v) => v,
+                Err(m) => return Err(self.fail(f, Status::Error, m)),
+            };
+            if let Err(m) = may_set(var, mode) {
+                return Err(self.fail(f, Status::Error, m));
+            }
+        }
+        Ok(())
+    }
+
+    fn setter_result(
+        &mut self,
+        f: &'static str,
+        vr: u32,
+        r: Result<(), ModelError>,
+        worst: &mut Status,
+    ) -> bool {
+        if let Err(mut e) = r {
+            let name = self.table.get(vr).map_or("?", |v| v.name);
+            e.message = format!("variable \"{name}\": {}", e.message);
+            let s = self.conclude(f, Status::Ok, Err(e));
+            *worst = (*worst).max(s);
+            return s <= Status::Warning;
+        }
+        true
+    }
+
+    /// Set Reals (`fmi2SetReal`, `fmi3SetFloat64`): non-finite values are refused, naming the variable.
+    pub fn set_real(&mut self, f: &'static str, vrs: &[u32], values: &[f64]) -> Status {
+        if let Err(s) = self.check_set(f, vrs, VarType::Real) {
+            return s;
+        }
+        for (&vr, &x) in vrs.iter().zip(values) {
+            if !x.is_finite() {
+                let var = self.table.get(vr).expect("checked");
+                let msg = format!(
+                    "value {x} for variable \"{}\" (value reference {vr}) is not finite; rejected, the variable keeps its value",
+                    var.name
+                );
+                return self.fail(f, Status::Error, msg);
+            }
+        }
+        let mut worst = Status::Ok;
+        for (&vr, &x) in vrs.iter().zip(values) {
+            let mut ctx = Ctx::new(&self.logger, f);
+            let r = self.model.set_real(&mut ctx, vr, x);
+            worst = worst.max(ctx.status());
+            if !self.setter_result(f, vr, r, &mut worst) {
+                break;
+            }
+        }
+        worst
+    }
+
+    /// Set Integers.
+    pub fn set_integer(&mut self, f: &'static str, vrs: &[u32], values: &[i32]) -> Status {
+        if let Err(s) = self.check_set(f, vrs, VarType::Integer) {
+            return s;
+        }
+        let mut worst = Status::Ok;
+        for (&vr, &x) in vrs.iter().zip(values) {
+            let mut ctx = Ctx::new(&self.logger, f);
+            let r = self.model.set_integer(&mut ctx, vr, x);
+            worst = worst.max(ctx.status());
+            if !self.setter_result(f, vr, r, &mut worst) {
+                break;
+            }
+        }
+        worst
+    }
+
+    /// Set Booleans (the shell has turned its C type into `bool`: any non-zero value is true).
+    pub fn set_boolean(&mut self, f: &'static str, vrs: &[u32], values: &[bool]) -> Status {
+        if let Err(s) = self.check_set(f, vrs, VarType::Boolean) {
+            return s;
+        }
+        let mut worst = Status::Ok;
+        for (&vr, &x) in vrs.iter().zip(values) {
+            let mut ctx = Ctx::new(&self.logger, f);
+            let r = self.model.set_boolean(&mut ctx, vr, x);
+            worst = worst.max(ctx.status());
+            if !self.setter_result(f, vr, r, &mut worst) {
+                break;
+            }
+        }
+        worst
+    }
+
+    /// Set Strings, with the C strings already decoded (`None`: NULL or not UTF-8).
+    pub fn set_string(&mut self, f: &'static str, vrs: &[u32], values: &[Option<&str>]) -> Status {
+        if let Err(s) = self.check_set(f, vrs, VarType::String) {
+            return s;
+        }
+        for (&vr, v) in vrs.iter().zip(values) {
+            if v.is_none() {
+                let name = self.table.get(vr).map_or("?", |v| v.name);
+                let msg = format!("value for variable \"{name}\" is NULL or not valid UTF-8");
+                return self.fail(f, Status::Error, msg);
+            }
+        }
+        let mut worst = Status::Ok;
+        for (&vr, v) in vrs.iter().zip(values) {
+            let mut ctx = Ctx::new(&self.logger, f);
+            let r = self.model.set_string(&mut ctx, vr, v.unwrap_or_default());
+            worst = worst.max(ctx.status());
+            if !self.setter_result(f, vr, r, &mut worst) {
+                break;
+            }
+        }
+        worst
+    }
+}

@@ -1,0 +1,102 @@
+//! A fixed amount of one hot-path workload, for `valgrind --tool=callgrind` (instruction
+//! counts are repeatable on a loaded machine where timings are not; docs/performance.md).
+//!
+//! ```text
+//! cargo build --release --example profile_hot_path && cargo run --release -- fmu
+//! valgrind --tool=callgrind --callgrind-out-file=target/perf/cg.out \
+//!     target/release/examples/profile_hot_path fmu-change 20000
+//! callgrind_annotate target/perf/cg.out | head -40
+//! ```
+//!
+//! Workloads (each `N` calls after a short warm-up, printed with a checksum of the outputs):
+//! - `fmu-const`, `fmu-change`: MagSwarm.fmu (FMI 2.0, 3.0 with `--fmu3`, or `--fmu=PATH`,
+//!   e.g. one packaged from a library built with line tables for `callgrind_annotate`) through the C
+//!   ABI ([`magswarm::perf::raw::RawLoop`]): doStep at constant inputs / set + doStep + get
+//!   with a new input every call, h = 1 ms;
+//! - `plant-const`, `plant-change`: the in-process `Plant::step(1 ms)`, without / with
+//!   `set_inputs` before every step;
+//! - `terms`: `InputTerms::new` alone (the work of one input change);
+//! - `tracking`: the seed's tracking scenario through the FMU and the Rust PID harness.
+
+use std::hint::black_box;
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use magswarm::control::{seed_scenario, sim, Controller, PidConfig};
+use magswarm::cosim::{CoSimConfig, CoSimulation, Fmu, NoLog};
+use magswarm::model::dynamics::InputTerms;
+use magswarm::model::{Model, Plant};
+use magswarm::perf::raw::{inputs, RawLoop, MAGSWARM};
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let what = args.first().map(String::as_str).unwrap_or("fmu-change");
+    let n: usize = args
+        .get(1)
+        .map(|s| s.parse())
+        .transpose()?
+        .unwrap_or(20_000);
+    let fmu_path = match args.iter().find_map(|a| a.strip_prefix("--fmu=")) {
+        Some(p) => p,
+        None if args.iter().any(|a| a == "--fmu3") => "target/fmu/fmi3/MagSwarm.fmu",
+        None => "target/fmu/MagSwarm.fmu",
+    };
+    let h = 1e-3;
+    let load = || Fmu::load(Path::new(fmu_path)).with_context(|| format!("load {fmu_path}"));
+    match what {
+        "fmu-const" | "fmu-change" => {
+            let fmu = load()?;
+            let mut r = RawLoop::new(&fmu, MAGSWARM, h)?;
+            let f = if what == "fmu-const" {
+                RawLoop::step
+            } else {
+                RawLoop::set_step_get
+            };
+            for _ in 0..n {
+                f(&mut r);
+            }
+        }
+        "plant-const" | "plant-change" => {
+            let mut p = Plant::new(Model::paper(), 8.5e-3, 4.0 * std::f64::consts::TAU);
+            let mut t = 0.0;
+            for _ in 0..n {
+                if what == "plant-change" {
+                    let u = inputs(t);
+                    p.set_inputs(u[0], u[1]);
+                }
+                p.step(h)?;
+                t += h;
+            }
+            println!("{:?}", p.state());
+        }
+        "terms" => {
+            let m = Model::paper();
+            for k in 0..n {
+                let u = inputs(k as f64 * h);
+                black_box(InputTerms::new(&m, black_box(u[0]), black_box(u[1])));
+            }
+        }
+        "tracking" => {
+            let fmu = load()?;
+            let cfg = PidConfig {
+                sample_time_s: h,
+                ..PidConfig::default()
+            };
+            let mut co = CoSimulation::new(
+                &fmu,
+                &CoSimConfig {
+                    step_s: h,
+                    initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
+                    ..CoSimConfig::default()
+                },
+            )?;
+            let mut ctrl = Controller::new(Model::paper(), cfg)?;
+            let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
+            println!("{} samples", run.samples.len());
+        }
+        other => bail!(
+            "unknown workload {other}: fmu-const, fmu-change, plant-const, plant-change, terms, tracking"
+        ),
+    }
+    Ok(())
+}

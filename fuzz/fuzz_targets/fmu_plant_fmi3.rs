@@ -1,0 +1,5 @@
+//! Random FMI 3.0 call sequences against `magswarm_fmu::MagSwarm` (see `magswarm_fuzz::drive3`).
+#![no_main]
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    magswarm_fuzz::drive3::<magswarm_fmu::MagSwarm>(data);
+});
