@@ -7,7 +7,7 @@
 use std::io::Write;
 use std::path::Path;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{PackagingError, Result};
 use magswarm_fmi::FmiVersion;
 
 /// The platform folder inside an FMU of `version` for the target this packager was compiled
@@ -116,12 +116,18 @@ pub fn fmu_zip(entries: &[Entry<'_>]) -> Result<Vec<u8>> {
         let exec = deflate.unix_permissions(0o755);
         for e in entries {
             let opts = if e.executable { exec } else { deflate };
-            zip.start_file(e.name.as_str(), opts)
-                .with_context(|| format!("zip entry {}", e.name))?;
+            let zip_err = |source| PackagingError::Zip {
+                entry: e.name.clone(),
+                source,
+            };
+            zip.start_file(e.name.as_str(), opts).map_err(zip_err)?;
             zip.write_all(e.data)
-                .with_context(|| format!("zip entry {}", e.name))?;
+                .map_err(|io| zip_err(zip::result::ZipError::Io(io)))?;
         }
-        zip.finish().context("cannot finish the FMU zip")?;
+        zip.finish().map_err(|source| PackagingError::Zip {
+            entry: String::new(),
+            source,
+        })?;
     }
     Ok(buf.into_inner())
 }
@@ -129,9 +135,9 @@ pub fn fmu_zip(entries: &[Entry<'_>]) -> Result<Vec<u8>> {
 /// Read the shared library to package, refusing anything that is not an ELF file (a wrong
 /// `--lib` would otherwise give an archive that every importer rejects later, far from here).
 pub fn read_shared_library(lib: &Path) -> Result<Vec<u8>> {
-    let so = std::fs::read(lib).with_context(|| format!("cannot read {}", lib.display()))?;
+    let so = std::fs::read(lib).map_err(PackagingError::io("read", lib))?;
     if so.len() < 4 || &so[..4] != b"\x7fELF" {
-        bail!("{} is not an ELF shared library", lib.display());
+        return Err(PackagingError::NotElf(lib.to_path_buf()));
     }
     Ok(so)
 }
@@ -140,11 +146,11 @@ pub fn read_shared_library(lib: &Path) -> Result<Vec<u8>> {
 /// interrupted run never leaves a truncated archive where an importer would find it.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(PackagingError::io("create", dir))?;
     }
     let tmp = path.with_extension("tmp-magswarm");
-    std::fs::write(&tmp, bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))
+    std::fs::write(&tmp, bytes).map_err(PackagingError::io("write", &tmp))?;
+    std::fs::rename(&tmp, path).map_err(PackagingError::io("write", path))
 }
 
 #[cfg(test)]

@@ -15,12 +15,14 @@
 //! - [`plant`]: `MagSwarm.fmu`; [`pid`]: the controller FMU `MagSwarmPID.fmu`.
 
 pub mod archive;
+pub mod error;
 pub mod library;
 pub mod pid;
 pub mod plant;
 pub mod stale;
 
 pub use archive::{platform_folder, write_atomic};
+pub use error::{PackagingError, Result};
 pub use library::{locate_library, xml_from_library};
 pub use magswarm_fmi::FmiVersion;
 

@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use anyhow::{bail, Context, Result};
+use crate::error::{PackagingError, Result};
 
 /// Find (and unless `no_build`, build) the shared library of the FMU crate `krate`
 /// (`lib_file` on disk): `$env_var` if set, else `cargo build -p krate` in the workspace the
@@ -22,7 +22,7 @@ pub fn locate_library(
     if let Ok(p) = std::env::var(env_var) {
         return Ok(PathBuf::from(p));
     }
-    let exe = std::env::current_exe().context("cannot locate the magswarm executable")?;
+    let exe = std::env::current_exe().map_err(PackagingError::CurrentExe)?;
     let exe_dir = exe.parent().map(Path::to_path_buf).unwrap_or_default();
     // target/<profile>/magswarm -> the workspace two levels up, if this is a source build.
     let workspace = exe_dir
@@ -39,19 +39,25 @@ pub fn locate_library(
             cmd.arg("--release");
         }
         log::info!("building the FMU library: cargo build -p {krate} ({profile})");
+        let build_err = |reason: String| PackagingError::Build {
+            krate: krate.to_string(),
+            reason,
+        };
         let status = cmd
             .status()
-            .with_context(|| format!("cannot run cargo to build {krate}"))?;
+            .map_err(|e| build_err(format!("cannot run cargo: {e}")))?;
         if !status.success() {
-            bail!("cargo build -p {krate} failed ({status})");
+            return Err(build_err(format!(
+                "cargo build -p {krate} failed ({status})"
+            )));
         }
     }
     let lib = exe_dir.join(lib_file);
     if !lib.is_file() {
-        bail!(
-            "{} not found; build it with `cargo build --release -p {krate}` or pass --lib PATH",
-            lib.display()
-        );
+        return Err(PackagingError::LibraryNotFound {
+            lib,
+            krate: krate.to_string(),
+        });
     }
     Ok(lib)
 }
@@ -63,24 +69,35 @@ pub fn xml_from_library(lib: &Path, json: &str, what: &str, fmi_version: u32) ->
     type Describe =
         unsafe extern "C" fn(*const std::ffi::c_char, std::ffi::c_uint) -> *mut std::ffi::c_char;
     type Free = unsafe extern "C" fn(*mut std::ffi::c_char);
-    let json = std::ffi::CString::new(json).with_context(|| format!("{what} JSON contains NUL"))?;
+    let json = std::ffi::CString::new(json).map_err(|_| PackagingError::JsonNul {
+        what: what.to_string(),
+    })?;
+    let load_err = |what: &'static str| {
+        move |source| PackagingError::Load {
+            lib: lib.to_path_buf(),
+            what,
+            source,
+        }
+    };
     // SAFETY: loading a magswarm FMU library runs no initialisers beyond Rust statics; the two
     // symbols are looked up by name and have exactly these signatures in every magswarm FMU
     // (`magswarm_fmi::export_describe!`); the returned string is read before it is handed back to `free`,
     // and the library outlives both calls.
     unsafe {
-        let l = libloading::Library::new(lib)
-            .with_context(|| format!("cannot load {}", lib.display()))?;
+        let l = libloading::Library::new(lib).map_err(load_err("cannot load"))?;
         let describe: libloading::Symbol<Describe> = l
             .get(b"fmu_model_description\0")
-            .with_context(|| format!("{} is not a magswarm FMU library", lib.display()))?;
-        let free: libloading::Symbol<Free> = l.get(b"fmu_free_string\0")?;
+            .map_err(load_err("not a magswarm FMU library"))?;
+        let free: libloading::Symbol<Free> = l
+            .get(b"fmu_free_string\0")
+            .map_err(load_err("not a magswarm FMU library"))?;
         let p = describe(json.as_ptr(), fmi_version);
         if p.is_null() {
-            bail!(
-                "{} rejected the {what} or has no FMI {fmi_version}.0 description",
-                lib.display()
-            );
+            return Err(PackagingError::Rejected {
+                lib: lib.to_path_buf(),
+                what: what.to_string(),
+                fmi_version,
+            });
         }
         let xml = std::ffi::CStr::from_ptr(p).to_string_lossy().into_owned();
         free(p);

@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use anyhow::Result;
+use crate::error::Result;
 use magswarm_control::PidConfig;
 use magswarm_model::Model;
 

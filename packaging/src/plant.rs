@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use anyhow::Result;
+use crate::error::Result;
 use magswarm_model::Model;
 
 use crate::archive::{self, Entry};

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use anyhow::{bail, Result};
+use crate::error::{PackagingError, Result};
 use magswarm_fmi::FmiVersion;
 
 /// Value of attribute `name` in an XML fragment (first occurrence).
@@ -36,11 +36,7 @@ pub fn token_attr(version: FmiVersion) -> &'static str {
 pub fn check_plant_library(lib: &Path, xml: &str, version: FmiVersion) -> Result<String> {
     let guid = plant_guid(version);
     if !xml.contains(&format!("{}=\"{guid}\"", token_attr(version))) {
-        bail!(
-            "{} was built from other sources than this magswarm binary (GUID differs); \
-             rebuild both with `cargo build --release --workspace`",
-            lib.display()
-        );
+        return Err(PackagingError::Stale(lib.to_path_buf()));
     }
     Ok(guid)
 }
@@ -49,7 +45,10 @@ pub fn check_plant_library(lib: &Path, xml: &str, version: FmiVersion) -> Result
 /// FMU passed as `--lib`).
 pub fn check_model_identifier(lib: &Path, xml: &str, model_identifier: &str) -> Result<()> {
     if !xml.contains(&format!("modelIdentifier=\"{model_identifier}\"")) {
-        bail!("{} is not the {model_identifier} library", lib.display());
+        return Err(PackagingError::WrongModel {
+            lib: lib.to_path_buf(),
+            model_identifier: model_identifier.to_string(),
+        });
     }
     Ok(())
 }
