@@ -6,19 +6,19 @@
 use magswarm::diagnose::{self, Config};
 use magswarm::log::Log;
 use magswarm::model::Model;
-use magswarm_scenarios::{scenarios, Protocol, Scenario, Shape, Truth};
+use magswarm_scenarios::{scenarios, Protocol, Scenario, Set, Shape, Truth};
 
 #[path = "common/bench_score.rs"]
 mod bench_score;
 
 fn verdict(sc: &Scenario) -> (&'static str, Vec<String>) {
-    let (train, withheld) = sc.logs();
-    let log = Log::from_str_named(&train, "scenario.csv").expect("a valid log");
-    let w = Log::from_str_named(&withheld, "withheld.csv").expect("a valid log");
+    let re = sc.realise();
+    let log = Log::from_str_named(&re.train, "scenario.csv").expect("a valid log");
+    let w = Log::from_str_named(&re.withheld, "withheld.csv").expect("a valid log");
     assert!(log.rows.len() >= 250 && w.rows.len() >= 100);
     let d = diagnose::diagnose(&log, Some(&w), &Model::paper(), &Config::default())
         .expect("diagnose runs");
-    (bench_score::score(sc, &d), d.attr.accepted.clone())
+    (bench_score::score(sc, &re, &d), d.attr.accepted.clone())
 }
 
 fn one(shape: Shape, strength: f64, protocol: Protocol, seed: u64) -> Scenario {
@@ -27,6 +27,7 @@ fn one(shape: Shape, strength: f64, protocol: Protocol, seed: u64) -> Scenario {
         protocol,
         truths: vec![Truth { shape, strength }],
         seed,
+        set: Set::Tuning,
     }
 }
 
@@ -54,6 +55,7 @@ fn null_logs_from_another_lab_name_nothing() {
             protocol: p,
             truths: Vec::new(),
             seed,
+            set: Set::Tuning,
         };
         let (v, named) = verdict(&sc);
         assert_eq!(v, "right", "{}: named {named:?}", sc.describe());

@@ -123,6 +123,9 @@ pub struct Withheld {
     pub baseline: Rmse,
     /// Augmented RMSE.
     pub augmented: Rmse,
+    /// Per valid row: its line in the file and the baseline's and the augmented model's
+    /// radii there \[mm\].
+    pub rows: Vec<(usize, [f64; 2], [f64; 2])>,
 }
 
 /// Everything a diagnosis produced.
@@ -444,6 +447,12 @@ pub fn diagnose(
                 source: w.source.clone(),
                 baseline: rmse(&wds, &pb_),
                 augmented: rmse(&wds, &pa),
+                rows: wds
+                    .rows
+                    .iter()
+                    .zip(pb_.iter().zip(&pa))
+                    .map(|(r, (b, a))| (r.line, *b, *a))
+                    .collect(),
             })
         }
     };

@@ -1,0 +1,194 @@
+//! The form of each named effect: its library (parametric) form where it gains as much on
+//! withheld visits as the learned shape, the learned shape otherwise.
+
+use super::*;
+
+/// For each named effect, its library form against its learned shape; the final model and
+/// its design.
+pub(super) fn choose_forms(
+    lin: &Linear,
+    named: &[(String, Vec<Variant>)],
+    out: &mut Attribution,
+    st: Settings,
+    progress: &indicatif::ProgressBar,
+) -> (Augmented, Design) {
+    let ds = lin.ds;
+    let mut design = lin.jac.clone();
+    let mut learned: Vec<(String, Family)> = Vec::new();
+    let mut parametric: Vec<String> = Vec::new();
+    // The last library fit (free parameters and library forms fitted together).
+    let mut last_lib: Option<Augmented> = None;
+    let one = vec![0usize; lin.y.len()];
+    for (name, vs) in named {
+        let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
+        let mut shape_design = Some(design.clone());
+        for v in vs {
+            shape_design = match (shape_design, columns_of(v, &lin.rc)) {
+                (Some(d), Some((c, p))) => Some(d.extend(&c, &p)),
+                _ => None,
+            };
+        }
+        let is_shape = vs.iter().all(|v| matches!(v, Variant::Shape(_)));
+        let g_learned = match (&before, &shape_design) {
+            (Some(b), Some(d)) => Solver::new(d, &lin.fold_of_stacked, lin.k)
+                .map(|s| gain(b, &s, &lin.y, [1.0, 1.0]))
+                .unwrap_or(f64::NEG_INFINITY),
+            _ => f64::NEG_INFINITY,
+        };
+        // The library form: fitted by the nonlinear fitter on top of the baseline and the
+        // library forms named before it, its correction then one column of the design.
+        let lin_start = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
+            .unwrap_or_else(|| lin.base.clone());
+        let mut start = match &last_lib {
+            Some(l) => Augmented {
+                learned: lin_start.learned.clone(),
+                ..l.clone()
+            },
+            None => lin_start,
+        };
+        start
+            .effects
+            .push((name.clone(), candidates::neutral(name, lin.ctx)));
+        let starts = candidates::starts(name, lin.ctx, ds);
+        let all: Vec<usize> = (0..ds.rows.len()).collect();
+        let fr = fitter::fit(
+            &start,
+            lin.free,
+            ds,
+            lin.ctx,
+            &all,
+            lin.noise.row(),
+            &starts,
+        );
+        progress.inc(1);
+        let p_fit = candidates::predict(&fr.aug, ds);
+        let col = DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| {
+            let (i, ax) = (s / 2, s % 2);
+            let d = lin.rc.w[ax] * (p_fit[i][ax] - lin.p0[i][ax]);
+            if d.is_finite() {
+                d
+            } else {
+                0.0
+            }
+        });
+        // The library form's correction less what the free parameters already span.
+        let col = match Solver::new(&lin.jac, &one, 1) {
+            Some(s) => {
+                let r = s.residual(&DVector::from_column_slice(col.as_slice()));
+                DMatrix::from_column_slice(r.len(), 1, r.as_slice())
+            }
+            None => col,
+        };
+        let param_design = design.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
+        // The library form's withheld gain: each fold refitted by the nonlinear fitter (its
+        // location and shape included, from the full fit), against the current design's
+        // withheld residual. (A column from the full fit with a free amplitude would know
+        // the withheld visits through the fitted location.)
+        let g_param = match &before {
+            Some(b) if col.norm() > 1e-9 => {
+                let e0 = linear::sse_axes(&b.cv_residual(&lin.y));
+                let cv = library_cv(lin, &fr.aug);
+                let e1 = linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
+                    let (i, a) = (s / 2, s % 2);
+                    let v = lin.rc.w[a] * (ds.rows[i].r[a] - cv[i][a]);
+                    if v.is_finite() {
+                        v
+                    } else {
+                        1e3
+                    }
+                }));
+                0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
+            }
+            _ => f64::NEG_INFINITY,
+        };
+        let use_learned = is_shape && g_learned.is_finite() && g_param < 0.9 * g_learned;
+        let learned_pred = shape_design
+            .as_ref()
+            .filter(|_| is_shape)
+            .and_then(|d| lin.evaluate(d))
+            .map(|x| x.0);
+        let mut e = out.evals.iter_mut().find(|e| &e.name == name);
+        if let Some(e) = e.as_deref_mut() {
+            e.curves = Some((p_fit.clone(), learned_pred.unwrap_or_default()));
+        }
+        // Given the effects named before it (in whichever form they took), an effect that no
+        // longer gains what names an effect is dropped: it was explaining their leftovers.
+        if g_param.max(g_learned) < MIN_GAIN {
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned));
+                e.accepted = false;
+                e.implausible.push(format!(
+                    "dropped: with the effects named before it, its withheld gain is {:.2} < {MIN_GAIN}",
+                    g_param.max(g_learned)
+                ));
+            }
+            out.accepted.retain(|a| a != name);
+            continue;
+        }
+        if use_learned {
+            for v in vs {
+                if let Variant::Shape(f) = v {
+                    learned.push((name.clone(), f.clone()));
+                }
+            }
+            design = shape_design.expect("shape design");
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned));
+            }
+        } else {
+            parametric.push(name.clone());
+            // The fit refitted the earlier library forms and the free parameters with it.
+            last_lib = Some(fr.aug.clone());
+            design = param_design;
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned));
+            }
+        }
+        let _ = st;
+    }
+    // The final model: learned heights and the free parameters from the linear fit; the
+    // library forms refitted by the nonlinear fitter with the learned shapes held.
+    let mut aug = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
+        .unwrap_or_else(|| lin.base.clone());
+    if let Some(mut lib) = last_lib {
+        // From the last library fit, which fitted the free parameters and every library form
+        // together (a joint refit from neutral values would stay where the effects vanish),
+        // with the learned shapes' heights from the linear fit.
+        lib.learned = aug.learned.clone();
+        let all: Vec<usize> = (0..ds.rows.len()).collect();
+        aug = fitter::fit(&lib, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
+    }
+    aug.sync_model();
+    for (name, sh) in &aug.learned {
+        if let Some(e) = out.evals.iter_mut().find(|e| &e.name == name) {
+            e.form = Form::Learned(sh.clone());
+        }
+    }
+    (aug, design)
+}
+
+/// Withheld predictions of a fitted augmented model: each fold refitted on the other folds'
+/// rows by the nonlinear fitter, from the full fit.
+pub(super) fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
+    let ds = lin.ds;
+    let mut cv = vec![[0.0; 2]; ds.rows.len()];
+    let fold_of_row: Vec<usize> = (0..ds.rows.len())
+        .map(|i| lin.fold_of_stacked[2 * i])
+        .collect();
+    for f in 0..lin.k {
+        let train: Vec<usize> = (0..ds.rows.len())
+            .filter(|&i| fold_of_row[i] != f)
+            .collect();
+        if train.len() == ds.rows.len() {
+            continue;
+        }
+        let fr = fitter::fit(full, lin.free, ds, lin.ctx, &train, lin.noise.row(), &[]);
+        let p = candidates::predict(&fr.aug, ds);
+        for i in 0..ds.rows.len() {
+            if fold_of_row[i] == f {
+                cv[i] = p[i];
+            }
+        }
+    }
+    cv
+}
