@@ -60,6 +60,15 @@ fn run(sc: &Scenario, cfg: &Config, reports: Option<&std::path::Path>) -> Outcom
                 let _ = std::fs::create_dir_all(&dir);
                 let _ = std::fs::write(dir.join("train.csv"), &re.train);
                 let _ = std::fs::write(dir.join("withheld.csv"), &re.withheld);
+                let truth: String = re
+                    .withheld_truth
+                    .iter()
+                    .map(|r| format!("{},{}\n", r[0], r[1]))
+                    .collect();
+                let _ = std::fs::write(
+                    dir.join("withheld_truth.csv"),
+                    format!("r1_mm,r2_mm\n{truth}"),
+                );
                 if let Err(e) = diagnose::report::write(&d, &dir) {
                     eprintln!("scenario {}: report: {e:#}", sc.id);
                 }

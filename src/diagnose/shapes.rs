@@ -102,6 +102,10 @@ pub struct Family {
     /// Exponent of the field in the amplitude: the value acts scaled by `(B(z_m)/B_mid)^amp`
     /// (a step-out that shows where the field is strong).
     pub amp: f64,
+    /// The radii the shape acts on (r1, r2): an effect may show in one only (a band of r2);
+    /// a shape that also fits the other radius would fit its noise. Ignored by `Rate`, which
+    /// acts on both through the map.
+    pub axes: [bool; 2],
 }
 
 /// A fitted shape.
@@ -285,6 +289,9 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
                 continue;
             }
             for ax in 0..2 {
+                if blocks == 2 && !f.axes[ax] {
+                    continue;
+                }
                 let col = if blocks == 1 { j } else { ax * k + j };
                 a[(2 * i + ax, col)] = wt * rc.gain(f, i, ax) * rc.w[ax];
             }
@@ -364,6 +371,7 @@ mod tests {
                 knots: k.to_vec(),
                 pin_last: false,
                 amp: 0.0,
+                axes: [true; 2],
                 smooth: 0.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],

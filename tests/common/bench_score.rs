@@ -16,8 +16,9 @@ fn overlaps(r: (f64, f64), s: (f64, f64)) -> bool {
     r.0 <= s.1 + 1e-9 && s.0 <= r.1 + 1e-9
 }
 
-/// A reported region where the shape acts.
-fn located(d: &Diagnosis, shape: Shape) -> bool {
+/// A reported region where the shape acts, or where what the baseline cannot absorb of it
+/// shows (`visible`: operating points; a residual can only be found where it is).
+fn located(d: &Diagnosis, shape: Shape, visible: &[(f64, f64)]) -> bool {
     let regions = d
         .regions
         .iter()
@@ -29,7 +30,12 @@ fn located(d: &Diagnosis, shape: Shape) -> bool {
         _ => match shape.region() {
             Some((z, f)) => regions
                 .filter(|r| matches!(r.kind, Kind::Inputs | Kind::Pattern))
-                .any(|r| overlaps(r.z, z) && overlaps(r.f, f)),
+                .any(|r| {
+                    (overlaps(r.z, z) && overlaps(r.f, f))
+                        || visible
+                            .iter()
+                            .any(|p| overlaps(r.z, (p.0, p.0)) && overlaps(r.f, (p.1, p.1)))
+                }),
             None => !d.regions.is_empty(),
         },
     }
@@ -103,7 +109,11 @@ pub fn score(sc: &Scenario, re: &Realised, d: &Diagnosis) -> &'static str {
             "wrong"
         };
     }
-    let loc = sc.truths.iter().all(|t| located(d, t.shape));
+    let loc = sc
+        .truths
+        .iter()
+        .zip(&re.visible_at)
+        .all(|(t, v)| located(d, t.shape, v));
     let shrink = withheld_shrink(re, d).unwrap_or(1.0);
     if loc && shrink >= 0.5 {
         "right"

@@ -96,6 +96,9 @@ pub struct Realised {
     pub strengths: Vec<f64>,
     /// Each truth's amplitude in its shape's own unit.
     pub amplitudes: Vec<f64>,
+    /// Each truth's operating points where what the baseline cannot absorb shows (a visit's
+    /// mean deviation at least half the largest): where a residual can locate it.
+    pub visible_at: Vec<Vec<(f64, f64)>>,
     /// SD of one row around the truth per axis \[mm\] (visit and row noise): the floor of the
     /// withheld RMSE.
     pub floor: [f64; 2],
@@ -133,6 +136,7 @@ impl Scenario {
         let absorb = Absorb::new(&lab, &plan);
         let mut effects = Vec::new();
         let mut strengths = Vec::new();
+        let mut visible_at = Vec::new();
         for t in &self.truths {
             let (x, s) = if t.shape.effect() == "camera_bias" {
                 (t.strength, absorb.visible(&[(t.shape, t.strength)]))
@@ -141,6 +145,7 @@ impl Scenario {
             };
             effects.push((t.shape, x));
             strengths.push(s);
+            visible_at.push(absorb.where_visible(&[(t.shape, x)]));
         }
         let (zs, fs): (&[f64], &[f64]) = match self.set {
             Set::Tuning => (&[6.0, 11.0, 16.0, 21.0], &[1.5, 4.5, 5.5, 7.5, 9.5]),
@@ -151,6 +156,7 @@ impl Scenario {
             train: lab.csv(&effects, &plan, self.seed ^ 0x7A11),
             withheld: lab.csv(&effects, &wplan, self.seed ^ 0x3E1D),
             amplitudes: effects.iter().map(|e| e.1).collect(),
+            visible_at,
             strengths,
             floor: lab.floor(),
             withheld_truth: lab.rows(&effects, &wplan).iter().map(|r| r.r).collect(),

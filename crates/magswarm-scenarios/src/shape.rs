@@ -230,7 +230,7 @@ impl Shape {
             | Stalled { .. }
             | Overshoot { .. }
             | SlowGrowth { .. } => 4.0,
-            DeadTime { .. } => 6.0,
+            DeadTime { .. } => 3.0,
             CameraScale => 10.0,
             CameraTilt => 7.5,
             Eccentric => 12.0,

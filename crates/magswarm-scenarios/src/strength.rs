@@ -100,6 +100,36 @@ impl<'a> Absorb<'a> {
     /// The largest deviation \[visit SDs\] of the noise-free rows with `effects` from the
     /// baseline's best (nonlinear least-squares) imitation of them.
     pub fn visible(&self, effects: &[(Shape, f64)]) -> f64 {
+        self.unabsorbed(effects)
+            .amax()
+            .min(self.visible_linear(effects))
+    }
+
+    /// The operating points of the plan where the unabsorbed deviation of `effects` (a visit's
+    /// mean, either radius) reaches half its largest value: where a residual can show it.
+    pub fn where_visible(&self, effects: &[(Shape, f64)]) -> Vec<(f64, f64)> {
+        let d = self.unabsorbed(effects);
+        let n = self.plan.rows;
+        let means: Vec<f64> = (0..self.plan.visits.len())
+            .map(|v| {
+                (0..2)
+                    .map(|a| ((0..n).map(|k| d[2 * (v * n + k) + a]).sum::<f64>() / n as f64).abs())
+                    .fold(0.0, f64::max)
+            })
+            .collect();
+        let top = means.iter().copied().fold(0.0, f64::max);
+        let mut pts: Vec<(f64, f64)> = (0..means.len())
+            .filter(|&v| top > 0.0 && means[v] >= 0.5 * top)
+            .map(|v| self.plan.visits[v])
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+        pts.dedup();
+        pts
+    }
+
+    /// The noise-free rows' deviation with `effects` from the baseline's best imitation
+    /// (stacked, in visit SDs).
+    fn unabsorbed(&self, effects: &[(Shape, f64)]) -> DVector<f64> {
         let y = stack(self.lab, &self.lab.rows(effects, self.plan));
         let mut p = get(self.lab);
         let mut lab = self.lab.clone();
@@ -142,8 +172,7 @@ impl<'a> Absorb<'a> {
                 break;
             }
         }
-        // Never more than the linearised imitation leaves (the fit starts there in effect).
-        r.amax().min(self.visible_linear(effects))
+        r
     }
 
     /// The amplitude of `shape` at which its visible deviation is `strength`, and the

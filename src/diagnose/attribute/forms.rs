@@ -11,7 +11,7 @@ pub(super) fn choose_forms(
     out: &mut Attribution,
     st: Settings,
     progress: &indicatif::ProgressBar,
-) -> (Augmented, Design) {
+) -> (Augmented, Design, Vec<(String, Family)>) {
     let ds = lin.ds;
     let mut design = lin.jac.clone();
     let mut learned: Vec<(String, Family)> = Vec::new();
@@ -20,6 +20,7 @@ pub(super) fn choose_forms(
     let mut last_lib: Option<Augmented> = None;
     let one = vec![0usize; lin.y.len()];
     for (name, vs) in named {
+        let vs = &prune_axes(lin, &design, vs);
         let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
         let mut shape_design = Some(design.clone());
         for v in vs {
@@ -37,8 +38,7 @@ pub(super) fn choose_forms(
         };
         // The library form: fitted by the nonlinear fitter on top of the baseline and the
         // library forms named before it, its correction then one column of the design.
-        let lin_start = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
-            .unwrap_or_else(|| lin.base.clone());
+        let lin_start = linear_model(lin, &learned).unwrap_or_else(|| lin.base.clone());
         let mut start = match &last_lib {
             Some(l) => Augmented {
                 learned: lin_start.learned.clone(),
@@ -148,15 +148,18 @@ pub(super) fn choose_forms(
     }
     // The final model: learned heights and the free parameters from the linear fit; the
     // library forms refitted by the nonlinear fitter with the learned shapes held.
-    let mut aug = linear_model(lin, &lin.jac_only_learned(&learned), &learned)
-        .unwrap_or_else(|| lin.base.clone());
+    let mut aug = linear_model(lin, &learned).unwrap_or_else(|| lin.base.clone());
+    let all: Vec<usize> = (0..ds.rows.len()).collect();
     if let Some(mut lib) = last_lib {
         // From the last library fit, which fitted the free parameters and every library form
         // together (a joint refit from neutral values would stay where the effects vanish),
         // with the learned shapes' heights from the linear fit.
         lib.learned = aug.learned.clone();
-        let all: Vec<usize> = (0..ds.rows.len()).collect();
         aug = fitter::fit(&lib, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
+    } else if !aug.learned.is_empty() {
+        // The free parameters refitted by the nonlinear fitter with the learned heights held:
+        // the linear fit's one step from the baseline is exact only near it.
+        aug = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
     }
     aug.sync_model();
     for (name, sh) in &aug.learned {
@@ -164,7 +167,7 @@ pub(super) fn choose_forms(
             e.form = Form::Learned(sh.clone());
         }
     }
-    (aug, design)
+    (aug, design, learned)
 }
 
 /// Withheld predictions of a fitted augmented model: each fold refitted on the other folds'
@@ -191,4 +194,42 @@ pub(super) fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
         }
     }
     cv
+}
+
+/// The radii each learned shape of a named effect acts on: a shape on both radii where the
+/// second radius gains at least one unit of withheld log-likelihood, else on the one radius
+/// that gains (an effect that shows in r2 alone does not also fit r1's noise).
+fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
+    let mut out: Vec<Variant> = Vec::new();
+    let mut d = design.clone();
+    for v in vs {
+        let mut best = v.clone();
+        if let Variant::Shape(f) = v {
+            if f.mode != Mode::Rate {
+                let score = |axes: [bool; 2]| -> Option<f64> {
+                    let g = Family { axes, ..f.clone() };
+                    let (c, p) = shapes::columns(&g, &lin.rc);
+                    let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
+                    let s1 = Solver::new(&d.extend(&c, &p), &lin.fold_of_stacked, lin.k)?;
+                    Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+                };
+                if let Some(both) = score([true, true]) {
+                    let one = [[true, false], [false, true]]
+                        .into_iter()
+                        .filter_map(|a| score(a).map(|g| (g, a)))
+                        .max_by(|a, b| a.0.total_cmp(&b.0));
+                    if let Some((g, axes)) = one {
+                        if g >= both - 1.0 {
+                            best = Variant::Shape(Family { axes, ..f.clone() });
+                        }
+                    }
+                }
+            }
+        }
+        if let Some((c, p)) = columns_of(&best, &lin.rc) {
+            d = d.extend(&c, &p);
+        }
+        out.push(best);
+    }
+    out
 }

@@ -223,8 +223,9 @@ pub fn attribute(
             cv,
         }
     };
-    let base_aug = linear_model(lin, &lin.jac, &[]).unwrap_or_else(|| lin.base.clone());
-    let base = eval_of(&lin.jac, Vec::new(), base_aug);
+    // Reported models are evaluated in the directions their model files can carry.
+    let base_aug = linear_model(lin, &[]).unwrap_or_else(|| lin.base.clone());
+    let base = eval_of(&lin.model_jac(), Vec::new(), base_aug);
     progress.inc(1);
     let mut out = Attribution {
         baseline: base.clone(),
@@ -401,7 +402,7 @@ pub fn attribute(
         return out;
     }
     // The form of each named effect, and the final model.
-    let (aug, design) = choose_forms(lin, &named, &mut out, st, progress);
+    let (aug, design, learned) = choose_forms(lin, &named, &mut out, st, progress);
     // Detection on what the final model leaves (the closing round).
     if out.rounds.len() < named.len() {
         if let Some(d) = detect::detect(&setting(lin, &design, &st), st.alpha) {
@@ -410,7 +411,7 @@ pub fn attribute(
     }
     let left_significant = out.rounds.last().map(|d| d.significant).unwrap_or(false);
     let names = out.accepted.clone();
-    let mut ev = eval_of(&design, names, aug.clone());
+    let mut ev = eval_of(&lin.model_design(&learned), names, aug.clone());
     // In-sample predictions through the model itself (what `predict` and the FMU replay).
     ev.pred = candidates::predict(&aug, ds);
     // With a library form in the model, its withheld predictions come from nonlinear refits

@@ -41,6 +41,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
                     knots: shapes::knots_of(&xs, fs.len().clamp(2, 10)),
                     pin_last: false,
                     amp,
+                    axes: [true; 2],
                     smooth: s,
                 }));
             }
@@ -56,6 +57,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
                 knots: shapes::knots_of(&zs, 8),
                 pin_last: false,
                 amp: 0.0,
+                axes: [true; 2],
                 smooth: s,
             }));
         }
@@ -86,6 +88,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
                     knots: shapes::knots_of(&rc.t, 8),
                     pin_last: false,
                     amp: 0.0,
+                    axes: [true; 2],
                     smooth: s,
                 })
             })
@@ -166,7 +169,7 @@ pub(super) fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>,
     let sd = noise::estimate(ds, &r0)
         .map(|n| n.visit)
         .unwrap_or(lin.noise.visit);
-    let (_, _, zr, fr) = detect::box_scan(ds, &r0, sd, true);
+    let (_, _, zr, fr) = detect::box_scan(ds, &r0, sd, true, false);
     let (cell, _, _) = noise::cells(ds);
     let n = ds.rows.len();
     let mut a = DMatrix::zeros(2 * n, 2);

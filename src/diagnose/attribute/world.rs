@@ -223,13 +223,12 @@ impl<'a> Linear<'a> {
     }
 }
 
-/// A model from the linear fit of design `d` (the baseline's free parameters moved by their
-/// coefficients) and the learned shapes of the named effects.
-pub(super) fn linear_model(
-    lin: &Linear,
-    d: &Design,
-    learned: &[(String, Family)],
-) -> Option<Augmented> {
+/// A model from the linear fit of the model's own directions (the baseline's free parameters,
+/// moved by their coefficients) and the learned shapes of the named effects. The baseline's
+/// transient directions stay out: the model file has no parameter for them, so a learned
+/// shape must carry what they would take up.
+pub(super) fn linear_model(lin: &Linear, learned: &[(String, Family)]) -> Option<Augmented> {
+    let d = lin.model_design(learned);
     let g = d.a.tr_mul(&d.a) + &d.pen;
     let c = nalgebra::Cholesky::new(g)?;
     let beta = c.solve(&d.a.tr_mul(&lin.y));
@@ -258,7 +257,7 @@ pub(super) fn linear_model(
             params::set(&mut aug.model, f.name(), v);
         }
     }
-    let mut at = lin.jac.cols();
+    let mut at = lin.free.len();
     for (name, fam) in learned {
         let (cols, _) = shapes::columns(fam, &lin.rc);
         let q = cols.ncols();
@@ -274,9 +273,19 @@ pub(super) fn linear_model(
 }
 
 impl Linear<'_> {
-    /// The Jacobian design with the learned shapes' columns (in order).
-    pub(super) fn jac_only_learned(&self, learned: &[(String, Family)]) -> Design {
-        let mut d = self.jac.clone();
+    /// The directions of the baseline's free parameters alone: what the model file can carry
+    /// (the transient directions of [`Linear::jac`] have no parameter in it).
+    pub(super) fn model_jac(&self) -> Design {
+        let p = self.free.len();
+        Design {
+            a: self.jac.a.columns(0, p).into_owned(),
+            pen: self.jac.pen.view((0, 0), (p, p)).into_owned(),
+        }
+    }
+
+    /// [`Linear::model_jac`] with the learned shapes' columns (in order).
+    pub(super) fn model_design(&self, learned: &[(String, Family)]) -> Design {
+        let mut d = self.model_jac();
         for (_, f) in learned {
             let (c, p) = shapes::columns(f, &self.rc);
             d = d.extend(&c, &p);
