@@ -319,7 +319,16 @@ pub fn attribute(
             let close = order.iter().copied().skip(1).find(|&e| {
                 scored[e].name != "local_anomaly" && excess(&scored[e]) >= 0.6 * excess(&scored[b])
             });
-            if let Some(e) = close.or(rescued) {
+            // An effect that leaves no box beyond the anomaly's own null explains it: a band
+            // over every z_m takes a box of it along; a true local anomaly stays on top of
+            // any shape along one axis.
+            let q_box = quantile(&scored[b].null, 1.0 - st.alpha);
+            let explains = order.iter().copied().skip(1).find(|&e| {
+                scored[e].name != "local_anomaly"
+                    && box_left(lin, &cur, scored[e].best.as_ref())
+                        .is_some_and(|g| g < q_box.max(MIN_GAIN))
+            });
+            if let Some(e) = close.or(explains).or(rescued) {
                 best = Some(e);
             }
         }
@@ -440,4 +449,17 @@ pub fn attribute(
         }
     }
     out
+}
+
+/// The withheld gain of the strongest local box on top of design `cur` with variant `v`: what
+/// of a local anomaly that effect leaves.
+fn box_left(lin: &Linear, cur: &Design, v: Option<&Variant>) -> Option<f64> {
+    let (c, p) = columns_of(v?, &lin.rc)?;
+    let d = cur.extend(&c, &p);
+    let one = vec![0usize; lin.y.len()];
+    let e0 = Solver::new(&d, &one, 1)?.residual(&lin.y);
+    let (bc, bp) = anomaly_columns(lin, &e0);
+    let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
+    let s1 = Solver::new(&d.extend(&bc, &bp), &lin.fold_of_stacked, lin.k)?;
+    Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
 }

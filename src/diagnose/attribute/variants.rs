@@ -24,23 +24,23 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
     // all a deficit of the swarm's rotation rate, acting through the map's own sensitivity to
     // the drive (one deficit for both radii).
     let mut v = Vec::new();
-    // Every variant widens the candidate's null: the phase lag's many forms are searched at
-    // two smoothings only.
-    for nu in [0.0, 1.0] {
+    // Every variant widens the candidate's null: the phase lag's forms are searched at two
+    // smoothings only, and the onset that moves with the field (nu = 1, the step-out's
+    // physics) only as a rate deficit; bands and roll-offs in mm or in proportion to the
+    // radius run over the drive frequency itself.
+    for (nu, modes) in [
+        (0.0, &[Mode::Rate, Mode::Add, Mode::Relative][..]),
+        (1.0, &[Mode::Rate][..]),
+    ] {
         let xs = rc.xs(Axis::F { nu });
-        for (mode, amp) in [
-            (Mode::Rate, 0.0),
-            (Mode::Add, 0.0),
-            (Mode::Relative, 0.0),
-            (Mode::Add, 1.0),
-        ] {
+        for &mode in modes {
             for s in [0.1, 1.0] {
                 v.push(Variant::Shape(Family {
                     axis: Axis::F { nu },
                     mode,
                     knots: shapes::knots_of(&xs, fs.len().clamp(2, 10)),
                     pin_last: false,
-                    amp,
+                    amp: 0.0,
                     axes: [true; 2],
                     smooth: s,
                 }));
