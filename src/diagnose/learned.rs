@@ -25,7 +25,9 @@ pub fn term(m: &Model, name: &str, sh: &Shape, b_mid: f64) -> LearnedTerm {
         axis,
         mode: match f.mode {
             Mode::Add => LearnedMode::AddMm,
-            Mode::Relative => LearnedMode::Relative,
+            // An aspect change is a relative change with opposite heights (the shape holds
+            // them per radius).
+            Mode::Relative | Mode::Aspect => LearnedMode::Relative,
             Mode::StepFraction => LearnedMode::StepFraction,
             Mode::Rate => LearnedMode::RateHz,
         },

@@ -72,6 +72,10 @@ pub enum Mode {
     /// A deficit of the swarm's rotation rate \[Hz\]: the steady map at the drive frequency
     /// less the value (one value for both radii: a step-out slows the whole swarm).
     Rate,
+    /// A change of the swarm's aspect [-]: r1 (1 - v) and r2 (1 + v), one value for both
+    /// radii (stretched along one principal direction, squeezed along the other). Written
+    /// into the model file as a relative change with opposite heights.
+    Aspect,
 }
 
 impl Mode {
@@ -82,6 +86,7 @@ impl Mode {
             Mode::Relative => "relative",
             Mode::StepFraction => "step_fraction",
             Mode::Rate => "rate_hz",
+            Mode::Aspect => "aspect",
         }
     }
 }
@@ -262,6 +267,7 @@ impl RowCtx {
                 Mode::Relative => self.pred[i][a],
                 Mode::StepFraction => self.delta[i][a],
                 Mode::Rate => -self.dmap_df[i][a],
+                Mode::Aspect => self.pred[i][a] * if a == 0 { -1.0 } else { 1.0 },
             }
     }
 }
@@ -271,9 +277,10 @@ fn free_knots(f: &Family) -> usize {
     f.knots.len() - usize::from(f.pin_last)
 }
 
-/// One set of heights for both radii (a rate deficit acts on the whole swarm).
+/// One set of heights for both radii (a rate deficit acts on the whole swarm, an aspect change
+/// on both principal radii at once).
 fn shared(f: &Family) -> bool {
-    f.mode == Mode::Rate
+    matches!(f.mode, Mode::Rate | Mode::Aspect)
 }
 
 /// The weighted columns of a family (stacked rows x 2 free-knot blocks, r1's then r2's) and
@@ -319,9 +326,14 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
         }
         out
     };
+    let mut values = [take(coef, 0), take(coef, 1)];
+    if f.mode == Mode::Aspect {
+        // Per radius, as a relative change: r1 the opposite of r2.
+        values[0].iter_mut().for_each(|v| *v = -*v);
+    }
     Shape {
         family: f.clone(),
-        values: [take(coef, 0), take(coef, 1)],
+        values,
         sd: [take(sd, 0), take(sd, 1)],
     }
 }

@@ -205,7 +205,7 @@ fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
     for v in vs {
         let mut best = v.clone();
         if let Variant::Shape(f) = v {
-            if f.mode != Mode::Rate {
+            if !matches!(f.mode, Mode::Rate | Mode::Aspect) {
                 let score = |axes: [bool; 2]| -> Option<f64> {
                     let g = Family { axes, ..f.clone() };
                     let (c, p) = shapes::columns(&g, &lin.rc);

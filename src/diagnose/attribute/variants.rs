@@ -94,9 +94,22 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
             })
             .collect(),
     ));
-    // Centroid offset: the correction its library form makes at a few distances (amplitude
-    // free), each a column.
+    // Centroid offset: off the field's axis the swarm sees another curvature along its two
+    // principal directions, so its aspect changes with depth (stretched along one, squeezed
+    // along the other; a learned shape over z_m, one value for both radii), and the
+    // correction its library form makes at a few distances (amplitude free), each a column.
     let mut cv = Vec::new();
+    for s in [0.1, 1.0] {
+        cv.push(Variant::Shape(Family {
+            axis: Axis::Z,
+            mode: Mode::Aspect,
+            knots: shapes::knots_of(&zs, 8),
+            pin_last: false,
+            amp: 0.0,
+            axes: [true; 2],
+            smooth: s,
+        }));
+    }
     for o in [3.0, 8.0, 16.0] {
         let mut a = lin.base.clone();
         a.effects.push(("centroid_offset".into(), vec![o]));
