@@ -514,7 +514,7 @@ fn a_prior_with_drift_and_camera_effects_is_fitted_through_the_observed_map() {
 
 #[test]
 fn drift_and_camera_offset_are_fitted_with_the_steady_map_when_freed() {
-    use magswarm::model::effects::{CameraBias, ParticleDrift};
+    use magswarm::model::effects::{CameraBias, Effect, ParticleDrift};
     let mut truth = common::perturbed_truth();
     truth.effects.particle_drift = Some(ParticleDrift { rate_per_h: -0.4 });
     truth.effects.camera_bias = Some(CameraBias {

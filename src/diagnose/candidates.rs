@@ -27,7 +27,7 @@
 
 use super::data::Dataset;
 use super::shapes::{self, Mode, Shape};
-use magswarm_model::effects::{self, Effects, FormationLag};
+use magswarm_model::effects::{self, EffectKind, Effects, FormationLag};
 use magswarm_model::registry::{self, Transform};
 use magswarm_model::{hz_to_rad_s, steady, Model};
 
@@ -253,7 +253,10 @@ pub fn starts(name: &str, ctx: &Ctx, ds: &Dataset) -> Vec<Vec<f64>> {
 /// Write a candidate's fit-space values into the model (switching the effect on; the
 /// parameters it does not free stay neutral).
 pub fn to_model(name: &str, vals: &[f64], b_mid: f64, m: &mut Model) {
-    m.effects.switch_on(name);
+    let Some(kind) = EffectKind::from_name(name) else {
+        return;
+    };
+    m.effects.switch_on(kind);
     let set = |m: &mut Model, row: &str, v: f64| {
         if let Some(p) = registry::find(row) {
             (p.set)(m, v);
@@ -285,7 +288,9 @@ pub fn to_model(name: &str, vals: &[f64], b_mid: f64, m: &mut Model) {
 /// The model parameters of an effect switched on in `m` (registry name without the effect
 /// prefix, unit, value): what `augmented.json` holds and the report shows.
 pub fn model_params(name: &str, m: &Model) -> Vec<(&'static str, &'static str, f64)> {
-    effects::params_of(name)
+    EffectKind::from_name(name)
+        .into_iter()
+        .flat_map(effects::params_of)
         .map(|p| {
             let field = p.name.split_once('.').map(|x| x.1).unwrap_or(p.name);
             (field, display_unit(p), (p.get)(m))

@@ -5,6 +5,7 @@ use super::data::SettleRule;
 use super::params::{self, Free, Group};
 use crate::cli::IdentifyArgs;
 use anyhow::{bail, Result};
+use magswarm_model::effects::Stage;
 
 /// Collinearity policy.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -168,13 +169,13 @@ impl Config {
 
 /// Whether `identify` fits a parameter of this group to the settled point means rather than
 /// to the transient rows: the steady map's own parameters, and the parameters of every effect
-/// that the observed steady map sees (the fit goes through `effects::observed_steady`). Only
-/// `formation_lag` shapes transients alone (no change at steady state), so its parameters go
-/// to the ODE fit with the time scales.
+/// that the observed steady map sees (the fit goes through `effects::observed_steady`). An
+/// effect that shapes transients alone ([`Stage::Transient`]: no change at steady state) has
+/// its parameters fitted to the transient rows with the time scales.
 pub fn fits_steady(group: Group) -> bool {
     match group {
         Group::Steady => true,
-        Group::Effect(effect) => effect != "formation_lag",
+        Group::Effect(effect) => effect.stage() != Stage::Transient,
         _ => false,
     }
 }

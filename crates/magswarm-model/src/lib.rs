@@ -26,6 +26,7 @@
 // 2x2 matrix code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+mod conststr;
 pub mod dynamics;
 pub mod effects;
 pub mod envelope;

@@ -144,7 +144,12 @@ impl Model {
                     "effects",
                     format!(
                         "effects need schema {SCHEMA:?} ({SCHEMA_V1:?} has none): switched on: {}",
-                        self.effects.enabled().join(", ")
+                        self.effects
+                            .enabled()
+                            .iter()
+                            .map(|k| k.name())
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ),
                 );
             }

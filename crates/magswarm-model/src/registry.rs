@@ -10,15 +10,17 @@
 //!   i-th row with `fmu: true`, name, unit, description and start value from the row);
 //! - `identify`'s free and fixed sets (every row with a [`Fit`]).
 //!
-//! **Adding a parameter** (an unmodelled effect's gain, say) is one new row here plus its
-//! field in the model (`Model`, `params`, or the effect's own struct): it then appears in the
-//! FMU, in validation and in `identify` by itself. Effect parameters take the group
-//! [`Group::Effect`] with the effect's name; add them at the end of [`PARAMS`] so that the
-//! value references of the existing FMU variables do not move. `tests/registry.rs` fails
-//! when a row is missing from any consumer or its accessor does not match its JSON path.
+//! **Adding a parameter** is one new row plus its field in the model: a plant parameter's row
+//! goes here (`BASE`, with its field in `Model` or `params`), an effect parameter's row goes
+//! into its effect's file ([`crate::effects::Effect::ROWS`], group [`Group::Effect`], with
+//! the next free slot). It then appears in the FMU, in validation and in `identify` by itself.
+//! `tests/registry.rs` fails when a row is missing from any consumer or its accessor does not
+//! match its JSON path.
 //!
-//! The order of [`PARAMS`] is the FMU's value-reference order: do not reorder rows.
+//! The order of [`PARAMS`] is the FMU's value-reference order: the plant's rows in `BASE`
+//! order, then the effects' rows by slot. Do not reorder rows or move slots.
 
+use crate::effects::{self, EffectKind};
 use crate::Model;
 
 /// Which part of the model a parameter belongs to.
@@ -32,8 +34,8 @@ pub enum Group {
     Magnet,
     /// Units and numerical conventions of (7) (`conventions.*`).
     Conventions,
-    /// Parameter of an unmodelled effect, with the effect's name (e.g. `"phase_lag"`).
-    Effect(&'static str),
+    /// Parameter of an unmodelled effect.
+    Effect(EffectKind),
 }
 
 /// How an optimiser's unconstrained variable u maps onto a bounded parameter.
@@ -133,11 +135,13 @@ fn z_offset_bounds(m: &Model) -> (f64, f64) {
 use Physical::Positive;
 use Transform::{Log, Sin};
 
-const fn range(lo: f64, hi: f64) -> Physical {
+/// A physical range `[lo, hi]`.
+pub(crate) const fn range(lo: f64, hi: f64) -> Physical {
     Physical::Range(lo, hi)
 }
 
-const fn fit(lo: f64, hi: f64, transform: Transform, stiffness: bool) -> Option<Fit> {
+/// Fit bounds and transform.
+pub(crate) const fn fit(lo: f64, hi: f64, transform: Transform, stiffness: bool) -> Option<Fit> {
     Some(Fit {
         lo,
         hi,
@@ -166,37 +170,10 @@ macro_rules! param {
     (@fmu $fmu:expr) => { $fmu };
 }
 
-/// A row for a field of an effect: name `effect.field`, path `effects.effect.field`.
-macro_rules! effect_param {
-    ($eff:ident . $field:ident, $ty:ident, $unit:expr, $desc:literal, $physical:expr, $fit:expr) => {
-        Param {
-            name: concat!(stringify!($eff), ".", stringify!($field)),
-            path: concat!("effects.", stringify!($eff), ".", stringify!($field)),
-            group: Group::Effect(stringify!($eff)),
-            unit: $unit,
-            description: $desc,
-            physical: $physical,
-            fit: $fit,
-            fmu: true,
-            get: |m: &Model| {
-                m.effects
-                    .$eff
-                    .unwrap_or(crate::effects::$ty::NEUTRAL)
-                    .$field
-            },
-            set: |m: &mut Model, v: f64| {
-                m.effects
-                    .$eff
-                    .get_or_insert(crate::effects::$ty::NEUTRAL)
-                    .$field = v;
-            },
-        }
-    };
-}
-
-/// Every numeric parameter, in the FMU's value-reference order.
+/// The plant's own parameters (steady map, ODE (4), magnet, conventions), in the FMU's
+/// value-reference order.
 #[rustfmt::skip]
-pub static PARAMS: &[Param] = &[
+const BASE: &[Param] = &[
     param!("C_1", steady.C_1, Steady, Some("mm"), "axis gain of r1 (5) (Table I)", Positive, fit(1e-3, 1e3, Log, false)),
     param!("C_2", steady.C_2, Steady, Some("mm"), "axis gain of r2 (5) (Table I)", Positive, fit(1e-3, 1e3, Log, false)),
     param!("a_K1", steady.a_K1, Steady, None, "curvature gain of S_x (7) (Table I)", range(0.0, 1e6), fit(1e-6, 1e3, Log, true)),
@@ -234,23 +211,45 @@ pub static PARAMS: &[Param] = &[
     param!("g_unit", conventions.g_unit_t_per_m, Conventions, Some("T/m"), "unit of g_z inside (7) (reconstructed)", Positive, None),
     param!("s_floor", conventions.s_floor, Conventions, None, "positive floor of S_x, S_y", Positive, None),
     param!("log_arg_floor", conventions.log_arg_floor, Conventions, None, "smallest argument allowed inside the logarithm of (7)", range(1e-300, 1.0), None, fmu: false),
-    // Unmodelled effects (crate::effects; docs/effects.md), below the existing rows so that value
-    // references do not move. Reading an effect that is off gives its neutral value; writing
-    // switches it on (its other parameters neutral).
-    effect_param!(phase_lag.f_so_hz, PhaseLag, Some("Hz"), "phase_lag: step-out frequency of the swarm rotation at the field B_ref", range(0.1, 1.0e6), fit(2.0, 1.0e4, Log, false)),
-    effect_param!(phase_lag.nu, PhaseLag, None, "phase_lag: field exponent of the step-out frequency", range(0.0, 4.0), fit(0.0, 3.0, Sin, false)),
-    effect_param!(cohesion_loss.z_c_mm, CohesionLoss, Some("mm"), "cohesion_loss: distance past which the confinement fades", range(-20.0, 100.0), fit(3.5, 23.5, Sin, false)),
-    effect_param!(cohesion_loss.k_per_mm2, CohesionLoss, None, "cohesion_loss: fading rate of the confinement [1/mm2] (fading length 1/sqrt(k))", range(0.0, 100.0), fit(0.0, 1.0, Sin, false)),
-    effect_param!(formation_lag.share, FormationLag, None, "formation_lag: share of the footprint formed through the slow mode", range(0.0, 1.0), fit(0.0, 1.0, Sin, false)),
-    effect_param!(formation_lag.tau_s, FormationLag, Some("s"), "formation_lag: time scale of the slow formation mode", range(1e-3, 1e5), fit(0.5, 300.0, Log, false)),
-    effect_param!(formation_lag.zeta, FormationLag, None, "formation_lag: damping ratio of the slow mode (< 1: oscillating)", range(0.01, 100.0), fit(0.05, 5.0, Log, false)),
-    effect_param!(particle_drift.rate_per_h, ParticleDrift, None, "particle_drift: relative growth rate of the radii over session time [1/h] (negative: shrinking)", range(-10.0, 10.0), fit(-2.0, 2.0, Sin, false)),
-    effect_param!(centroid_offset.offset_mm, CentroidOffset, Some("mm"), "centroid_offset: extra radial distance of the swarm centroid from the rotation axis", range(-50.0, 50.0), fit(-6.0, 15.0, Sin, false)),
-    effect_param!(camera_bias.scale, CameraBias, None, "camera_bias: scale error of the measured radii", range(0.2, 5.0), fit(0.7, 1.4, Log, false)),
-    effect_param!(camera_bias.offset_mm, CameraBias, Some("mm"), "camera_bias: offset of the measured radii", range(-20.0, 20.0), fit(-3.0, 3.0, Sin, false)),
-    effect_param!(camera_bias.tilt_deg, CameraBias, None, "camera_bias: tilt of the image plane about the r1 axis [deg] (foreshortens r2 by cos)", range(-80.0, 80.0), fit(0.0, 60.0, Sin, false)),
-    effect_param!(phase_lag.spread, PhaseLag, None, "phase_lag: spread of the step-out frequency over the particles (SD of ln f_so)", range(0.0, 3.0), fit(0.0, 1.5, Sin, false)),
 ];
+
+/// Number of rows.
+const LEN: usize = BASE.len() + effects::row_count();
+
+/// The plant's rows, then every effect's rows placed by their slots (below the plant's so
+/// that the plant's value references never move). Built at compile time: a slot used twice
+/// or left empty does not compile.
+const fn build() -> [Param; LEN] {
+    let mut out = [BASE[0]; LEN];
+    let mut i = 0;
+    while i < BASE.len() {
+        out[i] = BASE[i];
+        i += 1;
+    }
+    let mut taken = [false; LEN];
+    let mut e = 0;
+    while e < effects::ROWS.len() {
+        let rows = effects::ROWS[e];
+        let mut j = 0;
+        while j < rows.len() {
+            let at = BASE.len() + rows[j].slot;
+            assert!(at < LEN, "effect row slot past the end: slots must be 0..n");
+            assert!(!taken[at], "two effect rows in one slot");
+            taken[at] = true;
+            out[at] = rows[j].param;
+            j += 1;
+        }
+        e += 1;
+    }
+    out
+}
+
+static TABLE: [Param; LEN] = build();
+
+/// Every numeric parameter, in the FMU's value-reference order. Reading a parameter of an
+/// effect that is off gives its neutral value; writing it switches the effect on (its other
+/// parameters neutral).
+pub static PARAMS: &[Param] = &TABLE;
 
 /// The row of a parameter, by name.
 pub fn find(name: &str) -> Option<&'static Param> {

@@ -8,8 +8,8 @@ use magswarm_model::{hz_to_rad_s as hz, steady, Model, Plant, PlantSnapshot};
 
 fn all_neutral() -> Model {
     let mut m = Model::paper();
-    for n in effects::NAMES {
-        assert!(m.effects.switch_on(n));
+    for k in EffectKind::ALL {
+        m.effects.switch_on(k);
     }
     m
 }
@@ -64,7 +64,7 @@ fn neutral_effects_are_the_seed_model_bit_exactly() {
         }
     }
     // Each effect alone at neutral as well (no cross-cancellation hides a difference).
-    for n in effects::NAMES {
+    for n in EffectKind::ALL {
         let mut m = Model::paper();
         m.effects.switch_on(n);
         assert_eq!(trace(&base), trace(&m), "{n}");

@@ -131,7 +131,11 @@ pub fn write(id: &Identification, dir: &Path) -> Result<()> {
              observed steady map (every effect acting, drift at each row's session time, \
              camera terms on the reading); effect parameters not freed keep the prior's \
              values.\n",
-            effects.join(", ")
+            effects
+                .iter()
+                .map(|k| k.name())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     let c = &id.counts;
