@@ -107,10 +107,10 @@ pub fn main(cli: &Cli) -> i32 {
         Cmd::Fmu(a) => crate::packaging::run(a),
         Cmd::Predict(a) => crate::predict::run(a),
         Cmd::Identify(a) => crate::identify::run(a),
-        Cmd::Diagnose(a) => crate::diagnose::run(a),
+        Cmd::Diagnose(a) => diagnose::run(a),
         Cmd::Inverse(a) => crate::control_cli::run_inverse(a),
         Cmd::Linearize(a) => crate::control_cli::run_linearize(a),
-        Cmd::Lab(a) => crate::lab::run(a),
+        Cmd::Lab(a) => lab::run(a),
         Cmd::Sweep(a) => crate::sweep::run(a.clone()),
     };
     match result {

@@ -7,15 +7,15 @@ use super::*;
 /// its design.
 pub(super) fn choose_forms(
     lin: &Linear,
-    named: &[(String, Vec<Variant>)],
+    named: &[(EffectKind, Vec<Variant>)],
     out: &mut Attribution,
     st: Settings,
     progress: &indicatif::ProgressBar,
-) -> (Augmented, Design, Vec<(String, Family)>) {
+) -> (Augmented, Design, Vec<(EffectKind, Family)>) {
     let ds = lin.ds;
     let mut design = lin.jac.clone();
-    let mut learned: Vec<(String, Family)> = Vec::new();
-    let mut parametric: Vec<String> = Vec::new();
+    let mut learned: Vec<(EffectKind, Family)> = Vec::new();
+    let mut parametric: Vec<EffectKind> = Vec::new();
     // The last library fit (free parameters and library forms fitted together).
     let mut last_lib: Option<Augmented> = None;
     let one = vec![0usize; lin.y.len()];
@@ -46,10 +46,8 @@ pub(super) fn choose_forms(
             },
             None => lin_start,
         };
-        start
-            .effects
-            .push((name.clone(), candidates::neutral(name, lin.ctx)));
-        let starts = candidates::starts(name, lin.ctx, ds);
+        start.effects.push((*name, name.fit_neutral(lin.ctx)));
+        let starts = name.fit_starts(lin.ctx);
         let all: Vec<usize> = (0..ds.rows.len()).collect();
         let fr = fitter::fit(
             &start,
@@ -107,7 +105,7 @@ pub(super) fn choose_forms(
             .filter(|_| is_shape)
             .and_then(|d| lin.evaluate(d))
             .map(|x| x.0);
-        let mut e = out.evals.iter_mut().find(|e| &e.name == name);
+        let mut e = out.evals.iter_mut().find(|e| e.kind == *name);
         if let Some(e) = e.as_deref_mut() {
             e.curves = Some((p_fit.clone(), learned_pred.unwrap_or_default()));
         }
@@ -122,13 +120,13 @@ pub(super) fn choose_forms(
                     g_param.max(g_learned)
                 ));
             }
-            out.accepted.retain(|a| a != name);
+            out.accepted.retain(|a| a != name.name());
             continue;
         }
         if use_learned {
             for v in vs {
                 if let Variant::Shape(f) = v {
-                    learned.push((name.clone(), f.clone()));
+                    learned.push((*name, f.clone()));
                 }
             }
             design = shape_design.expect("shape design");
@@ -136,7 +134,7 @@ pub(super) fn choose_forms(
                 e.form_gains = Some((g_param, g_learned));
             }
         } else {
-            parametric.push(name.clone());
+            parametric.push(*name);
             // The fit refitted the earlier library forms and the free parameters with it.
             last_lib = Some(fr.aug.clone());
             design = param_design;
@@ -163,7 +161,7 @@ pub(super) fn choose_forms(
     }
     aug.sync_model();
     for (name, sh) in &aug.learned {
-        if let Some(e) = out.evals.iter_mut().find(|e| &e.name == name) {
+        if let Some(e) = out.evals.iter_mut().find(|e| e.kind == *name) {
             e.form = Form::Learned(sh.clone());
         }
     }

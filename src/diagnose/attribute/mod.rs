@@ -51,6 +51,7 @@ use super::linear::{self, Design, Solver};
 use super::noise::{self, Noise};
 use super::shapes::{self, Axis, Family, Mode, RowCtx, Shape};
 use crate::identify::params::{self, Free};
+use magswarm_model::effects::EffectKind;
 use nalgebra::{DMatrix, DVector};
 use rand::{seq::SliceRandom, SeedableRng};
 use rayon::prelude::*;
@@ -108,6 +109,8 @@ pub enum Form {
 pub struct CandidateEval {
     /// Name.
     pub name: String,
+    /// The effect.
+    pub kind: EffectKind,
     /// Round (1 = on top of the baseline).
     pub round: usize,
     /// The model with it (for a named effect: in the form chosen).
@@ -244,7 +247,7 @@ pub fn attribute(
     let cands = variants(lin);
     let mut cur = lin.jac.clone();
     // Named effects: (name, the variants that entered the design).
-    let mut named: Vec<(String, Vec<Variant>)> = Vec::new();
+    let mut named: Vec<(EffectKind, Vec<Variant>)> = Vec::new();
     let mut rounds_run = 0;
     // Rounds that only refine a named effect do not count toward `max_effects`, but at most
     // two of them run.
@@ -263,12 +266,12 @@ pub fn attribute(
         }
         // Effects not named yet, and the named ones again: what a named effect's shape leaves
         // of its own structure is more of the same effect (a refinement), not a new one.
-        let todo: Vec<(&'static str, Vec<Variant>)> = cands.clone();
+        let todo: Vec<(Cand, Vec<Variant>)> = cands.clone();
         let Some(scored) = score_round(lin, &cur, &todo, &st, round) else {
             break;
         };
         progress.inc(1);
-        let is_named = |n: &str| named.iter().any(|(a, _)| a == n);
+        let is_named = |c: Cand| named.iter().any(|(a, _)| Some(*a) == c.kind());
         let mut order: Vec<usize> = (0..scored.len())
             .filter(|&i| scored[i].p < st.alpha && scored[i].gain >= MIN_GAIN)
             .collect();
@@ -292,7 +295,7 @@ pub fn attribute(
         // its excess comes within 60 % of the anomaly's, or if it keeps a gain beyond its null
         // on top of the anomaly's box (the effect is there, the box took its strongest part);
         // otherwise the gap is a local one no effect describes.
-        if let Some(b) = best.filter(|&b| scored[b].name == "local_anomaly") {
+        if let Some(b) = best.filter(|&b| scored[b].name == Cand::Anomaly) {
             let boxed = scored[b]
                 .best
                 .as_ref()
@@ -317,14 +320,14 @@ pub fn attribute(
             // A near tie goes to the effect: a physical description that explains the box
             // nearly as well is the better report (the leftover, if any, is tested next).
             let close = order.iter().copied().skip(1).find(|&e| {
-                scored[e].name != "local_anomaly" && excess(&scored[e]) >= 0.6 * excess(&scored[b])
+                scored[e].name != Cand::Anomaly && excess(&scored[e]) >= 0.6 * excess(&scored[b])
             });
             // An effect that leaves no box beyond the anomaly's own null explains it: a band
             // over every z_m takes a box of it along; a true local anomaly stays on top of
             // any shape along one axis.
             let q_box = quantile(&scored[b].null, 1.0 - st.alpha);
             let explains = order.iter().copied().skip(1).find(|&e| {
-                scored[e].name != "local_anomaly"
+                scored[e].name != Cand::Anomaly
                     && box_left(lin, &cur, scored[e].best.as_ref())
                         .is_some_and(|g| g < q_box.max(MIN_GAIN))
             });
@@ -333,30 +336,31 @@ pub fn attribute(
             }
         }
         let winner = best.map(|b| scored[b].name);
-        let new_name = winner.filter(|w| *w != "local_anomaly" && !is_named(w));
+        let new_name = winner.filter(|w| *w != Cand::Anomaly && !is_named(*w));
         for (i, s) in scored.iter().enumerate() {
-            if s.name == "local_anomaly" {
+            if s.name == Cand::Anomaly {
                 out.anomaly = Some((s.gain, quantile(&s.null, 1.0 - st.alpha), s.p));
             }
-            if s.name == "local_anomaly" || is_named(s.name) {
+            let Some(kind) = s.name.kind().filter(|_| !is_named(s.name)) else {
                 continue;
-            }
+            };
             let accepted = Some(i) == best && new_name.is_some();
             let close: Vec<String> = match best {
                 Some(b) if i == b => order
                     .iter()
                     .skip(1)
                     .filter(|&&j| {
-                        scored[j].name != "local_anomaly"
+                        scored[j].name != Cand::Anomaly
                             && !is_named(scored[j].name)
                             && excess(&scored[j]) >= 0.8 * excess(&scored[b])
                     })
-                    .map(|&j| scored[j].name.to_string())
+                    .map(|&j| scored[j].name.name().to_string())
                     .collect(),
                 _ => Vec::new(),
             };
             let e = CandidateEval {
-                name: s.name.to_string(),
+                name: kind.name().to_string(),
+                kind,
                 round,
                 model: base.clone(),
                 gain: s.gain,
@@ -382,7 +386,7 @@ pub fn attribute(
             }
         }
         let Some(b) = best else { break };
-        if scored[b].name == "local_anomaly" {
+        if scored[b].name == Cand::Anomaly {
             out.anomaly_won = true;
             break;
         }
@@ -390,7 +394,10 @@ pub fn attribute(
         if let Some((c, p)) = columns_of(&v, &lin.rc) {
             cur = cur.extend(&c, &p);
         }
-        if let Some(n) = named.iter_mut().find(|(a, _)| a == scored[b].name) {
+        let Some(kind) = scored[b].name.kind() else {
+            break;
+        };
+        if let Some(n) = named.iter_mut().find(|(a, _)| *a == kind) {
             // A refinement: the named effect's shape gains a term.
             n.1.push(v);
             continue;
@@ -398,14 +405,14 @@ pub fn attribute(
         for a in out
             .evals
             .iter()
-            .find(|e| e.name == scored[b].name)
+            .find(|e| e.kind == kind)
             .map(|e| e.ambiguous_with.clone())
             .unwrap_or_default()
         {
-            out.ambiguous.push((scored[b].name.to_string(), a));
+            out.ambiguous.push((kind.name().to_string(), a));
         }
-        named.push((scored[b].name.to_string(), vec![v]));
-        out.accepted.push(scored[b].name.to_string());
+        named.push((kind, vec![v]));
+        out.accepted.push(kind.name().to_string());
     }
     if named.is_empty() {
         return out;
@@ -436,7 +443,7 @@ pub fn attribute(
     for e in out.evals.iter_mut().filter(|e| e.accepted) {
         e.model = out.augmented.clone();
         e.closes_gap = !left_significant;
-        e.implausible = candidates::implausible(&e.name, &aug, ctx);
+        e.implausible = e.kind.implausible(&aug.synced(), ctx);
         for (ri, r) in regions.iter().enumerate() {
             let before = gap::region_mean(ds, &res_base, base_map, r);
             let after = gap::region_mean(ds, &res_aug, base_map, r);

@@ -23,7 +23,7 @@ pub(super) fn quantile(x: &[f64], q: f64) -> f64 {
 
 /// One candidate's result in a round.
 pub(super) struct Scored {
-    pub(super) name: &'static str,
+    pub(super) name: Cand,
     pub(super) gain: f64,
     pub(super) null: Vec<f64>,
     pub(super) p: f64,
@@ -35,7 +35,7 @@ pub(super) struct Scored {
 pub(super) fn score_round(
     lin: &Linear,
     cur: &Design,
-    cands: &[(&'static str, Vec<Variant>)],
+    cands: &[(Cand, Vec<Variant>)],
     st: &Settings,
     round: usize,
 ) -> Option<Vec<Scored>> {
@@ -118,7 +118,7 @@ pub(super) fn score_round(
                     v => Some(v.clone()),
                 };
                 Scored {
-                    name,
+                    name: *name,
                     gain: g,
                     p: noise::boot_p(g, &nl),
                     null: nl,

@@ -3,6 +3,33 @@
 
 use super::*;
 
+/// A candidate: an effect, or the local anomaly no effect describes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Cand {
+    /// An effect.
+    Effect(EffectKind),
+    /// The strongest small box of operating points.
+    Anomaly,
+}
+
+impl Cand {
+    /// Name in tables and reports.
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            Cand::Effect(k) => k.name(),
+            Cand::Anomaly => "local_anomaly",
+        }
+    }
+
+    /// The effect, if one.
+    pub(super) fn kind(self) -> Option<EffectKind> {
+        match self {
+            Cand::Effect(k) => Some(k),
+            Cand::Anomaly => None,
+        }
+    }
+}
+
 /// One variant of a candidate: its columns (and penalty), or a box found per log.
 #[derive(Debug, Clone)]
 pub(super) enum Variant {
@@ -13,12 +40,12 @@ pub(super) enum Variant {
 }
 
 /// The candidates and their variants.
-pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
+pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
     let ds = lin.ds;
     let (zs, fs) = ds.levels();
     let rc = &lin.rc;
     let smooths = [0.01, 0.1, 1.0];
-    let mut out: Vec<(&'static str, Vec<Variant>)> = Vec::new();
+    let mut out: Vec<(Cand, Vec<Variant>)> = Vec::new();
     // Effects on the steady map act in mm or in proportion to the radius (a change of Phi
     // (6) or of the stiffness scales the radii): both modes are variants. A step-out is above
     // all a deficit of the swarm's rotation rate, acting through the map's own sensitivity to
@@ -47,7 +74,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
             }
         }
     }
-    out.push(("phase_lag", v));
+    out.push((Cand::Effect(EffectKind::PhaseLag), v));
     let mut v = Vec::new();
     for mode in [Mode::Add, Mode::Relative] {
         for s in smooths {
@@ -62,10 +89,10 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
             }));
         }
     }
-    out.push(("cohesion_loss", v));
+    out.push((Cand::Effect(EffectKind::CohesionLoss), v));
     if let Some(f) = detect::since_family(rc, 0.1) {
         out.push((
-            "formation_lag",
+            Cand::Effect(EffectKind::FormationLag),
             smooths
                 .iter()
                 .map(|&s| {
@@ -78,7 +105,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
         ));
     }
     out.push((
-        "particle_drift",
+        Cand::Effect(EffectKind::ParticleDrift),
         smooths
             .iter()
             .map(|&s| {
@@ -112,7 +139,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
     }
     for o in [3.0, 8.0, 16.0] {
         let mut a = lin.base.clone();
-        a.effects.push(("centroid_offset".into(), vec![o]));
+        a.effects.push((EffectKind::CentroidOffset, vec![o]));
         let p = candidates::predict(&a, ds);
         let col = DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| {
             let (i, ax) = (s / 2, s % 2);
@@ -147,16 +174,16 @@ pub(super) fn variants(lin: &Linear) -> Vec<(&'static str, Vec<Variant>)> {
         }
     }
     if !cv.is_empty() {
-        out.push(("centroid_offset", cv));
+        out.push((Cand::Effect(EffectKind::CentroidOffset), cv));
     }
     out.push((
-        "camera_bias",
+        Cand::Effect(EffectKind::CameraBias),
         vec![Variant::Column(
             "offset",
             DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| rc.w[s % 2]),
         )],
     ));
-    out.push(("local_anomaly", vec![Variant::Anomaly]));
+    out.push((Cand::Anomaly, vec![Variant::Anomaly]));
     out.retain(|(_, v)| {
         v.iter()
             .all(|x| !matches!(x, Variant::Shape(f) if f.knots.len() < 2))

@@ -227,7 +227,7 @@ impl<'a> Linear<'a> {
 /// moved by their coefficients) and the learned shapes of the named effects. The baseline's
 /// transient directions stay out: the model file has no parameter for them, so a learned
 /// shape must carry what they would take up.
-pub(super) fn linear_model(lin: &Linear, learned: &[(String, Family)]) -> Option<Augmented> {
+pub(super) fn linear_model(lin: &Linear, learned: &[(EffectKind, Family)]) -> Option<Augmented> {
     let d = lin.model_design(learned);
     let g = d.a.tr_mul(&d.a) + &d.pen;
     let c = nalgebra::Cholesky::new(g)?;
@@ -265,8 +265,7 @@ pub(super) fn linear_model(lin: &Linear, learned: &[(String, Family)]) -> Option
         let sd: Vec<f64> = (0..q)
             .map(|j| inv[(at + j, at + j)].max(0.0).sqrt())
             .collect();
-        aug.learned
-            .push((name.clone(), shapes::shape_of(fam, &coef, &sd)));
+        aug.learned.push((*name, shapes::shape_of(fam, &coef, &sd)));
         at += q;
     }
     Some(aug)
@@ -284,7 +283,7 @@ impl Linear<'_> {
     }
 
     /// [`Linear::model_jac`] with the learned shapes' columns (in order).
-    pub(super) fn model_design(&self, learned: &[(String, Family)]) -> Design {
+    pub(super) fn model_design(&self, learned: &[(EffectKind, Family)]) -> Design {
         let mut d = self.model_jac();
         for (_, f) in learned {
             let (c, p) = shapes::columns(f, &self.rc);

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::diagnose::{attribute, shapes};
+use magswarm_model::effects::LearnedAxis;
 
 /// Mean visit residual per point (NaN where a point has no visit).
 fn point_means(d: &Diagnosis, pred: &[[f64; 2]], a: usize) -> Vec<f64> {
@@ -187,14 +188,14 @@ pub(super) fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> 
 }
 
 /// The axis a named effect is shown along: its learned shape's, else its physical one.
-fn effect_axis(name: &str, form: &attribute::Form) -> shapes::Axis {
+fn effect_axis(kind: EffectKind, form: &attribute::Form) -> shapes::Axis {
     match form {
         attribute::Form::Learned(sh) => sh.family.axis,
-        attribute::Form::Parametric => match name {
-            "phase_lag" => shapes::Axis::F { nu: 0.0 },
-            "particle_drift" => shapes::Axis::T,
-            "formation_lag" => shapes::Axis::Since,
-            _ => shapes::Axis::Z,
+        attribute::Form::Parametric => match kind.axis() {
+            LearnedAxis::FHz => shapes::Axis::F { nu: 0.0 },
+            LearnedAxis::TS => shapes::Axis::T,
+            LearnedAxis::SinceChangeS => shapes::Axis::Since,
+            LearnedAxis::ZmMm => shapes::Axis::Z,
         },
     }
 }
@@ -211,7 +212,7 @@ fn effect_figures(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> {
         let Some((lib, learned)) = &e.curves else {
             continue;
         };
-        let axis = effect_axis(&e.name, &e.form);
+        let axis = effect_axis(e.kind, &e.form);
         let b_mid = d.ctx.b_mid;
         let x_of = |i: usize| -> f64 {
             let r = &ds.rows[i];

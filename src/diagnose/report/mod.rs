@@ -7,6 +7,7 @@ use super::gap::{self, Kind, Region};
 use super::{candidates, Diagnosis, Rmse};
 use crate::plot::{self, Heatmap, Labels, Panel, Series};
 use anyhow::{Context, Result};
+use magswarm_model::effects::EffectKind;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -58,8 +59,8 @@ fn pool(a: Rmse, b: Option<Rmse>) -> [f64; 2] {
 }
 
 /// The parameters of a candidate's effect in a fitted model, as `name = value unit` strings.
-fn param_strings(name: &str, m: &magswarm_model::Model) -> Vec<String> {
-    candidates::model_params(name, m)
+fn param_strings(kind: EffectKind, m: &magswarm_model::Model) -> Vec<String> {
+    candidates::model_params(kind, m)
         .into_iter()
         .map(|(p, u, v)| format!("{p} = {} {u}", g(v)))
         .collect()
@@ -89,7 +90,7 @@ pub fn json(d: &Diagnosis) -> Value {
         .iter()
         .map(|e| {
             let fitted = e.model.full.aug.synced();
-            let mp = candidates::model_params(&e.name, &fitted);
+            let mp = candidates::model_params(e.kind, &fitted);
             let params: serde_json::Map<String, Value> =
                 mp.iter().map(|(p, _, v)| (p.to_string(), json!(v))).collect();
             let tr = super::rmse(&d.ds, &e.model.pred);
