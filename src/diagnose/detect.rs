@@ -92,6 +92,7 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
                 pin_last: false,
                 amp: 0.0,
                 axes: [true; 2],
+                monotone: None,
                 smooth: 0.3,
             },
         ),
@@ -105,6 +106,7 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
                 pin_last: false,
                 amp: 0.0,
                 axes: [true; 2],
+                monotone: None,
                 smooth: 0.3,
             },
         ),
@@ -118,6 +120,7 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
                 pin_last: false,
                 amp: 0.0,
                 axes: [true; 2],
+                monotone: None,
                 smooth: 0.3,
             },
         ),
@@ -149,6 +152,7 @@ pub fn since_family(rc: &RowCtx, smooth: f64) -> Option<Family> {
         pin_last: true,
         amp: 0.0,
         axes: [true; 2],
+        monotone: None,
         smooth,
     })
 }

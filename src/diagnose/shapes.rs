@@ -111,6 +111,9 @@ pub struct Family {
     /// a shape that also fits the other radius would fit its noise. Ignored by `Rate`, which
     /// acts on both through the map.
     pub axes: [bool; 2],
+    /// The heights must run one way along the axis (a drift, a growth past an onset): each
+    /// radius' heights are a monotone block of the fit.
+    pub monotone: Option<linear::Monotone>,
 }
 
 /// A fitted shape.
@@ -313,6 +316,24 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     (a, pen)
 }
 
+/// The columns, penalty and monotone blocks of a family, as a design fragment.
+pub fn design(f: &Family, rc: &RowCtx) -> Design {
+    let (a, pen) = columns(f, rc);
+    let mut d = Design::new(a, pen);
+    if let Some(dir) = f.monotone {
+        let k = free_knots(f);
+        let blocks = if shared(f) { 1 } else { 2 };
+        d.mono = (0..blocks)
+            .map(|b| linear::MonoBlock {
+                start: b * k,
+                len: k,
+                dir,
+            })
+            .collect();
+    }
+    d
+}
+
 /// The shape whose heights are `coef` (the family's free knots, r1's then r2's) with their
 /// SDs, as a model term would carry it.
 pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
@@ -338,31 +359,6 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
     }
 }
 
-/// Fit a family on top of `base` to the weighted residual `y` on all rows: the shape (with
-/// SDs from the penalised normal equations) and the weighted fitted values of the whole
-/// design. None when the system is singular.
-pub fn fit(
-    base: &Design,
-    f: &Family,
-    rc: &RowCtx,
-    y: &nalgebra::DVector<f64>,
-) -> Option<(Shape, nalgebra::DVector<f64>)> {
-    let (cols, pen) = columns(f, rc);
-    let d = base.extend(&cols, &pen);
-    let g = d.a.tr_mul(&d.a) + &d.pen;
-    let c = nalgebra::Cholesky::new(g)?;
-    let beta = c.solve(&d.a.tr_mul(y));
-    let inv = c.inverse();
-    let p0 = base.cols();
-    let q = cols.ncols();
-    let coef: Vec<f64> = (0..q).map(|j| beta[p0 + j]).collect();
-    let sd: Vec<f64> = (0..q)
-        .map(|j| inv[(p0 + j, p0 + j)].max(0.0).sqrt())
-        .collect();
-    let fitted = &d.a * beta;
-    Some((shape_of(f, &coef, &sd), fitted))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -384,6 +380,7 @@ mod tests {
                 pin_last: false,
                 amp: 0.0,
                 axes: [true; 2],
+                monotone: None,
                 smooth: 0.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],

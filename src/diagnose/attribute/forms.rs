@@ -25,7 +25,7 @@ pub(super) fn choose_forms(
         let mut shape_design = Some(design.clone());
         for v in vs {
             shape_design = match (shape_design, columns_of(v, &lin.rc)) {
-                (Some(d), Some((c, p))) => Some(d.extend(&c, &p)),
+                (Some(d), Some(more)) => Some(d.append(&more)),
                 _ => None,
             };
         }
@@ -46,6 +46,10 @@ pub(super) fn choose_forms(
             },
             None => lin_start,
         };
+        // The same nonlinear refits per fold without it: what the library form's withheld
+        // gain is measured against (refitting nonlinearly gains by itself over the linear
+        // design; that must not count for the form).
+        let without = start.clone();
         start.effects.push((*name, name.fit_neutral(lin.ctx)));
         let starts = name.fit_starts(lin.ctx);
         let all: Vec<usize> = (0..ds.rows.len()).collect();
@@ -82,19 +86,21 @@ pub(super) fn choose_forms(
         // location and shape included, from the full fit), against the current design's
         // withheld residual. (A column from the full fit with a free amplitude would know
         // the withheld visits through the fitted location.)
+        let cv_sse = |m: &Augmented| {
+            let cv = library_cv(lin, m);
+            linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
+                let (i, a) = (s / 2, s % 2);
+                let v = lin.rc.w[a] * (ds.rows[i].r[a] - cv[i][a]);
+                if v.is_finite() {
+                    v
+                } else {
+                    1e3
+                }
+            }))
+        };
         let g_param = match &before {
-            Some(b) if col.norm() > 1e-9 => {
-                let e0 = linear::sse_axes(&b.cv_residual(&lin.y));
-                let cv = library_cv(lin, &fr.aug);
-                let e1 = linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
-                    let (i, a) = (s / 2, s % 2);
-                    let v = lin.rc.w[a] * (ds.rows[i].r[a] - cv[i][a]);
-                    if v.is_finite() {
-                        v
-                    } else {
-                        1e3
-                    }
-                }));
+            Some(_) if col.norm() > 1e-9 => {
+                let (e0, e1) = (cv_sse(&without), cv_sse(&fr.aug));
                 0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
             }
             _ => f64::NEG_INFINITY,
@@ -206,9 +212,12 @@ fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
             if !matches!(f.mode, Mode::Rate | Mode::Aspect) {
                 let score = |axes: [bool; 2]| -> Option<f64> {
                     let g = Family { axes, ..f.clone() };
-                    let (c, p) = shapes::columns(&g, &lin.rc);
                     let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
-                    let s1 = Solver::new(&d.extend(&c, &p), &lin.fold_of_stacked, lin.k)?;
+                    let s1 = Solver::new(
+                        &d.append(&shapes::design(&g, &lin.rc)),
+                        &lin.fold_of_stacked,
+                        lin.k,
+                    )?;
                     Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
                 };
                 if let Some(both) = score([true, true]) {
@@ -224,8 +233,8 @@ fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
                 }
             }
         }
-        if let Some((c, p)) = columns_of(&best, &lin.rc) {
-            d = d.extend(&c, &p);
+        if let Some(more) = columns_of(&best, &lin.rc) {
+            d = d.append(&more);
         }
         out.push(best);
     }

@@ -47,7 +47,7 @@ use super::data::Dataset;
 use super::detect::{self, Setting};
 use super::fitter::{self, FitResult};
 use super::gap::{self, Region};
-use super::linear::{self, Design, Solver};
+use super::linear::{self, Design, Monotone, Solver};
 use super::noise::{self, Noise};
 use super::shapes::{self, Axis, Family, Mode, RowCtx, Shape};
 use crate::identify::params::{self, Free};
@@ -300,9 +300,9 @@ pub fn attribute(
                 .best
                 .as_ref()
                 .and_then(|v| columns_of(v, &lin.rc))
-                .map(|(c, p)| cur.extend(&c, &p));
+                .map(|more| cur.append(&more));
             let rescued = order.iter().copied().skip(1).find(|&e| {
-                let (Some(d), Some((c, p))) = (
+                let (Some(d), Some(more)) = (
                     boxed.as_ref(),
                     scored[e].best.as_ref().and_then(|v| columns_of(v, &lin.rc)),
                 ) else {
@@ -310,7 +310,7 @@ pub fn attribute(
                 };
                 let (Some(s0), Some(s1)) = (
                     Solver::new(d, &lin.fold_of_stacked, lin.k),
-                    Solver::new(&d.extend(&c, &p), &lin.fold_of_stacked, lin.k),
+                    Solver::new(&d.append(&more), &lin.fold_of_stacked, lin.k),
                 ) else {
                     return false;
                 };
@@ -391,8 +391,8 @@ pub fn attribute(
             break;
         }
         let v = scored[b].best.clone().expect("a variant");
-        if let Some((c, p)) = columns_of(&v, &lin.rc) {
-            cur = cur.extend(&c, &p);
+        if let Some(more) = columns_of(&v, &lin.rc) {
+            cur = cur.append(&more);
         }
         let Some(kind) = scored[b].name.kind() else {
             break;
@@ -461,8 +461,7 @@ pub fn attribute(
 /// The withheld gain of the strongest local box on top of design `cur` with variant `v`: what
 /// of a local anomaly that effect leaves.
 fn box_left(lin: &Linear, cur: &Design, v: Option<&Variant>) -> Option<f64> {
-    let (c, p) = columns_of(v?, &lin.rc)?;
-    let d = cur.extend(&c, &p);
+    let d = cur.append(&columns_of(v?, &lin.rc)?);
     let one = vec![0usize; lin.y.len()];
     let e0 = Solver::new(&d, &one, 1)?.residual(&lin.y);
     let (bc, bp) = anomaly_columns(lin, &e0);

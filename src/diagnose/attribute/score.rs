@@ -49,8 +49,8 @@ pub(super) fn score_round(
         .map(|(_, vs)| {
             vs.iter()
                 .map(|v| {
-                    columns_of(v, &lin.rc).and_then(|(c, p)| {
-                        Solver::new(&cur.extend(&c, &p), &lin.fold_of_stacked, lin.k)
+                    columns_of(v, &lin.rc).and_then(|more| {
+                        Solver::new(&cur.append(&more), &lin.fold_of_stacked, lin.k)
                     })
                 })
                 .collect()

@@ -69,6 +69,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                     pin_last: false,
                     amp: 0.0,
                     axes: [true; 2],
+                    monotone: None,
                     smooth: s,
                 }));
             }
@@ -85,6 +86,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                 pin_last: false,
                 amp: 0.0,
                 axes: [true; 2],
+                monotone: None,
                 smooth: s,
             }));
         }
@@ -116,6 +118,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                     pin_last: false,
                     amp: 0.0,
                     axes: [true; 2],
+                    monotone: Some(Monotone::Either),
                     smooth: s,
                 })
             })
@@ -134,6 +137,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
             pin_last: false,
             amp: 0.0,
             axes: [true; 2],
+            monotone: None,
             smooth: s,
         }));
     }
@@ -191,12 +195,15 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
     out
 }
 
-/// Columns and penalty of a fixed variant.
-pub(super) fn columns_of(v: &Variant, rc: &RowCtx) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+/// Columns, penalty and monotone blocks of a fixed variant.
+pub(super) fn columns_of(v: &Variant, rc: &RowCtx) -> Option<Design> {
     match v {
-        Variant::Shape(f) => Some(shapes::columns(f, rc)),
-        Variant::Column(_, c) => Some((c.clone(), DMatrix::identity(c.ncols(), c.ncols()) * 1e-8)),
-        Variant::Columns(_, c, p) => Some((c.clone(), p.clone())),
+        Variant::Shape(f) => Some(shapes::design(f, rc)),
+        Variant::Column(_, c) => Some(Design::new(
+            c.clone(),
+            DMatrix::identity(c.ncols(), c.ncols()) * 1e-8,
+        )),
+        Variant::Columns(_, c, p) => Some(Design::new(c.clone(), p.clone())),
         Variant::Anomaly => None,
     }
 }

@@ -146,10 +146,7 @@ impl<'a> Linear<'a> {
         full.columns_mut(0, free.len()).copy_from(&a);
         full.columns_mut(free.len(), extra.ncols())
             .copy_from(&extra);
-        let jac = Design {
-            a: full,
-            pen: DMatrix::identity(p, p) * JAC_RIDGE,
-        };
+        let jac = Design::new(full, DMatrix::identity(p, p) * JAC_RIDGE);
         let ln_b = ds
             .rows
             .iter()
@@ -231,7 +228,9 @@ pub(super) fn linear_model(lin: &Linear, learned: &[(EffectKind, Family)]) -> Op
     let d = lin.model_design(learned);
     let g = d.a.tr_mul(&d.a) + &d.pen;
     let c = nalgebra::Cholesky::new(g)?;
-    let beta = c.solve(&d.a.tr_mul(&lin.y));
+    // Monotone shapes' heights projected as in every fit of the selection.
+    let one = vec![0usize; lin.y.len()];
+    let beta = Solver::new(&d, &one, 1)?.coef(&lin.y);
     let inv = c.inverse();
     let mut aug = lin.base.clone();
     // Free parameters: columns were scaled to unit norm; recover the step per column.
@@ -276,18 +275,17 @@ impl Linear<'_> {
     /// (the transient directions of [`Linear::jac`] have no parameter in it).
     pub(super) fn model_jac(&self) -> Design {
         let p = self.free.len();
-        Design {
-            a: self.jac.a.columns(0, p).into_owned(),
-            pen: self.jac.pen.view((0, 0), (p, p)).into_owned(),
-        }
+        Design::new(
+            self.jac.a.columns(0, p).into_owned(),
+            self.jac.pen.view((0, 0), (p, p)).into_owned(),
+        )
     }
 
     /// [`Linear::model_jac`] with the learned shapes' columns (in order).
     pub(super) fn model_design(&self, learned: &[(EffectKind, Family)]) -> Design {
         let mut d = self.model_jac();
         for (_, f) in learned {
-            let (c, p) = shapes::columns(f, &self.rc);
-            d = d.extend(&c, &p);
+            d = d.append(&shapes::design(f, &self.rc));
         }
         d
     }
