@@ -292,9 +292,10 @@ pub fn attribute(
         }
         let mut best = order.first().copied();
         // A local anomaly ahead of every effect: an effect that passed still names the gap if
-        // its excess comes within 60 % of the anomaly's, or if it keeps a gain beyond its null
-        // on top of the anomaly's box (the effect is there, the box took its strongest part);
-        // otherwise the gap is a local one no effect describes.
+        // its excess comes within 60 % of the anomaly's, if it leaves no box beyond the
+        // anomaly's null (it explains the box), or if it keeps a substantial gain beyond its
+        // null on top of the anomaly's box (the effect is there, the box took its strongest
+        // part); otherwise the gap is a local one no effect describes.
         if let Some(b) = best.filter(|&b| scored[b].name == Cand::Anomaly) {
             let boxed = scored[b]
                 .best
@@ -314,8 +315,12 @@ pub fn attribute(
                 ) else {
                     return false;
                 };
+                // Beyond its null, and by a margin that matters beside the anomaly's (a
+                // one-column candidate's narrow null is passed by a shift of hundredths of a
+                // millimetre).
                 let g = gain(&s0, &s1, &lin.y, [1.0, 1.0]);
-                g >= MIN_GAIN.max(quantile(&scored[e].null, 1.0 - st.alpha))
+                let q = quantile(&scored[e].null, 1.0 - st.alpha);
+                g >= MIN_GAIN.max(q) && g - q >= 0.3 * excess(&scored[b])
             });
             // A near tie goes to the effect: a physical description that explains the box
             // nearly as well is the better report (the leftover, if any, is tested next).
