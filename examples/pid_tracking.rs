@@ -178,7 +178,8 @@ pub fn plot(path: &Path, run: &Run) -> Result<()> {
                 series: vec![Series::line("f_m", col(|x| x.f_hz))],
             },
         ],
-    )
+    )?;
+    Ok(())
 }
 
 /// The per-segment table (markdown), with the seed's model radii beside ours for the seed's

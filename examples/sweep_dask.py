@@ -19,7 +19,7 @@ pattern). --workers K starts a LocalCluster of K single-threaded worker processe
 FMU paths, or pass paths on a shared file system). --workers 0 runs serially in this process
 (no dask), the reference the tests compare with.
 
-Draws (identical to src/sweep/draws.rs, bit for bit): counter-based SplitMix64 from
+Draws (identical to crates/magswarm-sweep/src/draws.rs, bit for bit): counter-based SplitMix64 from
 (seed, run, stream) and Box-Muller; parameter i uses stream 2 i (uniform ranges) or the normal
 from streams 2 i, 2 i + 1 (covariance, mean + L z with the textbook Cholesky L). Default ranges:
 C_1, C_2, alpha_1, alpha_2 +-10 %, K_tau +-30 % around the model's values.

@@ -10,16 +10,20 @@
 #    RTDE and TMCL to the emulated devices, frames from the emulated camera (a virtual swarm
 #    driven by the robot's reported pose and the stepper's frequency), radii measured by
 #    magswarm-vision, a shadow model beside it;
-# 4. plots the tracking (target/bridge_demo/tracking.png; needs matplotlib, skipped without).
+# 4. plots the tracking (target/bridge_demo/tracking.png; needs matplotlib, skipped without);
+# 5. builds the rig FMU for the same config (magswarm-bridge fmu -> MagSwarmRig.fmu) and drives
+#    it with fmpy: a step of z_m and omega_m, 8 s in real time (needs the .venv of
+#    scripts/setup.sh, skipped without).
 #
-# Output: target/bridge_demo/{log.csv,tracking.png,emulate.log}. The run takes 40 s (wall time:
-# the devices and the camera run in real time).
+# Output: target/bridge_demo/{log.csv,tracking.png,emulate.log,MagSwarmRig.fmu,rig_fmu.csv,
+# rig_fmu.png}. The run takes 40 s, the FMU 8 s (wall time: the devices and the camera run in
+# real time).
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$ROOT"
 OUT="$ROOT/target/bridge_demo"
 mkdir -p "$OUT"
-cargo build --release -p magswarm-bridge
+cargo build --release -p magswarm-bridge -p magswarm-rig-fmu
 BRIDGE="$ROOT/target/release/magswarm-bridge"
 
 # A loopback address of our own, so the standard UR ports do not clash with anything.
@@ -43,3 +47,12 @@ if [ -x .venv/bin/python ]; then
     .venv/bin/python examples/bridge/plot_tracking.py "$OUT/log.csv" "$OUT/tracking.png" || true
 fi
 echo "log: $OUT/log.csv"
+
+# The same rig as an FMU: built from the same config, driven by fmpy.
+"$BRIDGE" fmu --config "$OUT/rig.toml" --out "$OUT/MagSwarmRig.fmu"
+if [ -x .venv/bin/python ]; then
+    .venv/bin/python examples/bridge/rig_fmu_step.py "$OUT/MagSwarmRig.fmu" "$OUT/rig_fmu.csv" \
+        "$OUT/rig_fmu.png"
+else
+    echo "no .venv (bash scripts/setup.sh): the rig FMU was built, not run"
+fi

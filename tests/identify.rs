@@ -3,7 +3,8 @@
 mod common;
 
 use common::Spec;
-use magswarm::identify::{self, params, Collinear, Config, IdentifyArgs};
+use magswarm::cli::identify::{run as run_identify, IdentifyArgs};
+use magswarm::identify::{self, params, Collinear, Config};
 use magswarm::log::Log;
 use magswarm::model::Model;
 
@@ -264,7 +265,7 @@ fn command_writes_model_and_report() {
     let rep = dir.path().join("rep");
     let mut a = args(vec![la, lb], out.clone());
     a.report = Some(rep.clone());
-    identify::run(&a).unwrap();
+    run_identify(&a).unwrap();
     let m = Model::load(&out).unwrap();
     assert!(m.provenance.contains("a.csv") && m.provenance.contains("b.csv"));
     let md = std::fs::read_to_string(rep.join("report.md")).unwrap();
@@ -298,7 +299,7 @@ fn err_of(text: &str, a: impl FnOnce(&mut IdentifyArgs)) -> String {
     let p = write_log(dir.path(), "in.csv", text);
     let mut ar = args(vec![p], dir.path().join("m.json"));
     a(&mut ar);
-    format!("{:#}", identify::run(&ar).unwrap_err())
+    format!("{:#}", run_identify(&ar).unwrap_err())
 }
 
 fn grid_text(zs: &[f64], fs: &[f64], reps: usize) -> String {
@@ -360,7 +361,7 @@ fn bad_logs_give_clear_errors() {
         "N".into(),
         "q".into(),
     ]);
-    identify::run(&a).unwrap();
+    run_identify(&a).unwrap();
     // No radius columns.
     let e = err_of("t_s,z_m_mm,f_hz\n0,8.5,4\n", |_| {});
     assert!(e.contains("no r1_mm, r2_mm columns"), "{e}");
@@ -387,7 +388,7 @@ fn bad_logs_give_clear_errors() {
     let p = write_log(dir.path(), "in.csv", &text);
     let mut a = args(vec![p], dir.path().join("m.json"));
     a.lenient = true;
-    identify::run(&a).unwrap();
+    run_identify(&a).unwrap();
 }
 
 #[test]

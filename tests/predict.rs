@@ -3,9 +3,9 @@
 mod common;
 
 use common::Spec;
+use magswarm::cli::predict::{self, PredictArgs};
 use magswarm::log::Log;
 use magswarm::model::{hz_to_rad_s, steady, Model};
-use magswarm::predict::{self, PredictArgs};
 
 #[test]
 fn replay_reproduces_the_generating_plant() {

@@ -57,10 +57,7 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<()> {
     use crate::log::{Log, ReadOptions};
     use magswarm_model::Model;
     let cfg = a.config()?;
-    let prior = match &a.model {
-        Some(p) => Model::load(p)?,
-        None => Model::paper(),
-    };
+    let prior = Model::load_or_paper(a.model.as_deref())?;
     let opts = ReadOptions { lenient: a.lenient };
     let log = Log::read_with(&a.log, opts)?;
     for s in &log.skipped {

@@ -1,7 +1,14 @@
-//! Arguments of `magswarm identify` (turned into an [`crate::identify::Config`] by
-//! `Config::from_args`, run by [`crate::identify::run`]).
+//! `magswarm identify`: its arguments, their library face ([`IdentifyArgs::config`]) and the
+//! run (read the logs, [`crate::identify::identify`], write the model and the report).
 
 use std::path::PathBuf;
+
+use crate::identify::data::SettleRule;
+use crate::identify::{self, params, Collinear, Config};
+use crate::log::{Log, ReadOptions};
+use crate::model::Model;
+use anyhow::{bail, Context, Result};
+use std::io::IsTerminal;
 
 /// Arguments of `magswarm identify`.
 #[derive(Debug, Clone, clap::Args)]
@@ -61,4 +68,126 @@ pub struct IdentifyArgs {
     /// Skip bad rows (each reported on stderr) instead of failing.
     #[arg(long)]
     pub lenient: bool,
+}
+
+impl IdentifyArgs {
+    /// The identification's configuration these flags ask for.
+    pub fn config(&self) -> Result<Config> {
+        let a = self;
+        let mut c = Config::default();
+        if let Some(f) = &a.free {
+            c.free = f
+                .iter()
+                .map(|s| s.trim().to_string())
+                .filter(|s| !s.is_empty())
+                .collect();
+        }
+        for n in &a.fix {
+            let n = n.trim();
+            if params::def(n).is_none() {
+                return Err(identify::unknown_parameter("--fix", n).into());
+            }
+            c.free.retain(|x| x != n);
+        }
+        for b in &a.bound {
+            let parsed = b.split_once('=').and_then(|(n, r)| {
+                let (lo, hi) = r.split_once(':')?;
+                Some((
+                    n.trim().to_string(),
+                    lo.trim().parse().ok()?,
+                    hi.trim().parse().ok()?,
+                ))
+            });
+            match parsed {
+                Some((n, lo, hi)) if lo < hi => c.bounds.push((n, lo, hi)),
+                _ => bail!("--bound {b:?}: expected NAME=LO:HI with LO < HI"),
+            }
+        }
+        c.settle = match a.settle_s {
+            Some(s) if s >= 0.0 && s.is_finite() => SettleRule::Fixed(s),
+            Some(s) => bail!("--settle-s {s}: must be a finite number >= 0"),
+            None if a.settle_factor >= 0.0 && a.settle_factor.is_finite() => {
+                SettleRule::TimeConstants(a.settle_factor)
+            }
+            None => bail!("--settle-factor {}: must be >= 0", a.settle_factor),
+        };
+        c.starts = a.starts.max(1);
+        c.bootstrap = a.bootstrap;
+        c.seed = a.seed;
+        c.collinear = match a.collinear.as_str() {
+            "fix" => Collinear::Fix {
+                cond_max: a.cond_max,
+            },
+            "ridge" => Collinear::Ridge {
+                lambda: a.ridge_lambda,
+            },
+            "report" => Collinear::Report,
+            o => bail!("--collinear {o}: expected fix, ridge or report"),
+        };
+        c.dynamics = !a.no_dynamics;
+        c.withhold_every = a.withhold_every;
+        Ok(c)
+    }
+}
+
+/// A progress bar on stderr, drawn only when stderr is a terminal.
+struct Bar(indicatif::ProgressBar);
+
+impl Bar {
+    fn new(msg: &str) -> Bar {
+        if !std::io::stderr().is_terminal() {
+            return Bar(indicatif::ProgressBar::hidden());
+        }
+        let pb = indicatif::ProgressBar::new(0);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        pb.set_message(msg.to_string());
+        Bar(pb)
+    }
+}
+
+impl identify::Progress for Bar {
+    fn start(&self, total: u64) {
+        self.0.set_length(total);
+    }
+    fn inc(&self, n: u64) {
+        self.0.inc(n);
+    }
+    fn add_total(&self, n: u64) {
+        self.0.inc_length(n);
+    }
+    fn finish(&self) {
+        self.0.finish_and_clear();
+    }
+}
+
+/// Run `magswarm identify`.
+pub fn run(a: &IdentifyArgs) -> Result<()> {
+    let cfg = a.config()?;
+    let prior = Model::load_or_paper(a.model.as_deref())?;
+    let mut logs = Vec::new();
+    for p in &a.log {
+        let l = Log::read_with(p, ReadOptions { lenient: a.lenient })?;
+        for s in &l.skipped {
+            eprintln!("identify: warning: {}: skipped {s}", l.source);
+        }
+        logs.push(l);
+    }
+    let id = identify::identify_with_progress(&logs, &prior, &cfg, &Bar::new("identify"))?;
+    id.model
+        .save(&a.out)
+        .with_context(|| format!("cannot save {}", a.out.display()))?;
+    eprint!("{}", crate::report::identify::summary(&id));
+    if let Some(dir) = &a.report {
+        crate::report::identify::write(&id, dir)?;
+        eprintln!(
+            "identify: report written to {}",
+            dir.join("report.md").display()
+        );
+    }
+    eprintln!("identify: model written to {}", a.out.display());
+    Ok(())
 }

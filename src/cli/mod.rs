@@ -7,11 +7,11 @@
 mod control;
 mod diagnose;
 mod fmu;
-mod identify;
+pub mod identify;
 mod lab;
-mod paper;
-mod predict;
-mod sweep;
+pub mod paper;
+pub mod predict;
+pub mod sweep;
 
 pub use control::{InverseArgs, LinFormat, LinearizeArgs};
 pub use diagnose::DiagnoseArgs;
@@ -103,15 +103,15 @@ pub fn main(cli: &Cli) -> i32 {
         return 2;
     }
     let result = match &cli.cmd {
-        Cmd::Paper(a) => crate::paper::run(a),
+        Cmd::Paper(a) => paper::run(a),
         Cmd::Fmu(a) => crate::packaging::run(a),
-        Cmd::Predict(a) => crate::predict::run(a),
-        Cmd::Identify(a) => crate::identify::run(a),
+        Cmd::Predict(a) => predict::run(a),
+        Cmd::Identify(a) => identify::run(a),
         Cmd::Diagnose(a) => diagnose::run(a),
         Cmd::Inverse(a) => crate::control_cli::run_inverse(a),
         Cmd::Linearize(a) => crate::control_cli::run_linearize(a),
         Cmd::Lab(a) => lab::run(a),
-        Cmd::Sweep(a) => crate::sweep::run(a.clone()),
+        Cmd::Sweep(a) => sweep::run(a),
     };
     match result {
         Ok(()) => 0,

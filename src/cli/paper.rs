@@ -1,6 +1,11 @@
-//! Arguments of `magswarm paper` (run by [`crate::paper::run`]).
+//! `magswarm paper`: its arguments and the run (the figures of [`crate::paper`], printed as a
+//! table or JSON, and the plots of [`crate::report::paper`]).
 
 use std::path::PathBuf;
+
+use crate::model::Model;
+use crate::paper::{paper_figures, render_table};
+use anyhow::Result;
 
 /// Arguments of `magswarm paper`.
 #[derive(Debug, clap::Args)]
@@ -14,4 +19,25 @@ pub struct PaperArgs {
     /// Print the figures as JSON (machine-readable) instead of the table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Run `magswarm paper`.
+pub fn run(a: &PaperArgs) -> Result<()> {
+    let model = Model::load_or_paper(a.model.as_deref())?;
+    let figures = paper_figures(&model);
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&figures)?);
+    } else {
+        print!("{}", render_table(&figures));
+    }
+    if let Some(dir) = &a.plots {
+        let files = crate::report::paper::write_plots(&model, &figures, dir)?;
+        if !a.json {
+            println!("\nplots:");
+            for f in files {
+                println!("  {}", f.display());
+            }
+        }
+    }
+    Ok(())
 }

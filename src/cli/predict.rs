@@ -1,6 +1,12 @@
-//! Arguments of `magswarm predict` (run by [`crate::predict::run`]).
+//! `magswarm predict`: its arguments and the run (read the log, replay it with
+//! [`crate::predict::predict_log`], write the output log).
 
 use std::path::PathBuf;
+
+use crate::log::{Log, LogWriter};
+use crate::model::Model;
+use crate::predict;
+use anyhow::{Context, Result};
 
 /// Arguments of `magswarm predict`.
 #[derive(Debug, clap::Args)]
@@ -14,4 +20,34 @@ pub struct PredictArgs {
     /// Output log with predicted r1_mm, r2_mm.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// Run `magswarm predict`.
+pub fn run(a: &PredictArgs) -> Result<()> {
+    let model = Model::load_or_paper(a.model.as_deref())?;
+    let log = Log::read(&a.log)?;
+    if log.rows.is_empty() {
+        anyhow::bail!("{}: the log has no rows to replay", a.log.display());
+    }
+    let pred = predict::predict_log(&model, &log)?;
+    let (layout, rows) = predict::output_rows(&log, &pred);
+    let mut w = LogWriter::create(&a.out, layout)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    for o in &rows {
+        w.write_row(o)
+            .with_context(|| format!("cannot write {}", a.out.display()))?;
+    }
+    w.finish()
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    eprintln!(
+        "predict: {} rows of {} replayed through {} -> {}",
+        log.rows.len(),
+        a.log.display(),
+        a.model
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| "the paper model".into()),
+        a.out.display()
+    );
+    Ok(())
 }

@@ -70,11 +70,17 @@ pub enum DiagnoseError {
         source: super::noise::TooFew,
     },
     /// The baseline could not be identified.
-    #[error("fitting the baseline (identify): {0:#}")]
-    Baseline(anyhow::Error),
-    /// A log could not be replayed through the baseline.
-    #[error("{0:#}")]
-    Replay(anyhow::Error),
+    #[error("fitting the baseline (identify): {0}")]
+    Baseline(#[source] crate::identify::IdentifyError),
+    /// A session could not be replayed through the baseline.
+    #[error("replaying session {session} through the baseline: {source}")]
+    Replay {
+        /// The session.
+        session: String,
+        /// Why.
+        #[source]
+        source: crate::identify::PredictError,
+    },
     /// The gap tests' linear systems are singular.
     #[error("{source_name}: the gap tests could not be computed (singular design)")]
     GapTests {

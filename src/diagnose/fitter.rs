@@ -4,9 +4,9 @@
 use super::candidates::{self, Augmented, Ctx};
 use super::data::Dataset;
 use crate::identify::params::{self, Free};
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use crate::lm::{self, LevenbergMarquardt};
 use magswarm_model::effects::FitParam as EffParam;
-use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use nalgebra::{DMatrix, DVector};
 
 /// Most starts refined by a local fit (the rest of a start grid is ranked by cost only).
 const MAX_REFINED: usize = 3;
@@ -99,24 +99,17 @@ impl Problem<'_> {
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
-
-    fn set_params(&mut self, u: &DVector<f64>) {
-        self.u.copy_from(u);
+impl lm::Fit for Problem<'_> {
+    fn set(&mut self, u: &[f64]) {
+        self.u.copy_from_slice(u);
         for (k, &ui) in self.knobs.iter().zip(u.iter()) {
             k.set(&mut self.aug, k.to_theta(ui));
         }
     }
-    fn params(&self) -> DVector<f64> {
-        self.u.clone()
+    fn residuals(&self) -> DVector<f64> {
+        self.res_of(&self.aug)
     }
-    fn residuals(&self) -> Option<DVector<f64>> {
-        Some(self.res_of(&self.aug))
-    }
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
+    fn jacobian(&self) -> DMatrix<f64> {
         let base = self.res_of(&self.aug);
         let mut j = DMatrix::zeros(base.len(), self.knobs.len());
         for (c, k) in self.knobs.iter().enumerate() {
@@ -128,7 +121,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
                 j[(i, c)] = (r[i] - base[i]) / h;
             }
         }
-        Some(j)
+        j
     }
 }
 
@@ -235,7 +228,7 @@ fn local_fit(
     patience: usize,
 ) -> (Augmented, f64) {
     let u0 = DVector::from_iterator(knobs.len(), knobs.iter().map(|k| k.to_u(k.get(init))));
-    let mut prob = Problem {
+    let prob = Problem {
         aug: init.clone(),
         knobs,
         ds,
@@ -243,13 +236,16 @@ fn local_fit(
         sd,
         u: u0.clone(),
     };
-    prob.set_params(&u0);
-    let (prob, _rep) = LevenbergMarquardt::new()
-        .with_ftol(1e-7)
-        .with_xtol(1e-7)
-        .with_gtol(1e-9)
-        .with_patience(patience)
-        .minimize(prob);
+    let prob = lm::minimize(
+        prob,
+        u0,
+        LevenbergMarquardt::new()
+            .with_ftol(1e-7)
+            .with_xtol(1e-7)
+            .with_gtol(1e-9)
+            .with_patience(patience),
+    )
+    .fit;
     let cost = prob.res_of(&prob.aug).norm_squared();
     let cost = if cost.is_finite() {
         cost

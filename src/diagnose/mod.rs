@@ -261,7 +261,6 @@ pub fn diagnose(
         starts: 4,
         bootstrap: 0,
         seed: cfg.seed,
-        progress: false,
         ..identify::Config::default()
     };
     // The baseline is the prior without effects: a prior that has some (an earlier run's
@@ -275,7 +274,7 @@ pub fn diagnose(
     let baseline = ident.model.clone();
     let settle = ident.settle;
     let sessions = data::sessions(std::slice::from_ref(log), settle, &baseline);
-    let ds = Dataset::build(&sessions, &baseline).map_err(DiagnoseError::Replay)?;
+    let ds = Dataset::build(&sessions, &baseline)?;
     let pe = data::pure_error(&ds);
     check_usable(&ds, &log.source)?;
     let ctx = candidates::context(&baseline, &ds);
@@ -435,7 +434,7 @@ pub fn diagnose(
                 });
             }
             let ws = data::sessions(std::slice::from_ref(w), settle, &baseline);
-            let wds = Dataset::build(&ws, &baseline).map_err(DiagnoseError::Replay)?;
+            let wds = Dataset::build(&ws, &baseline)?;
             if wds.rows.is_empty() {
                 return Err(DiagnoseError::WithheldEmpty {
                     source_name: w.source.clone(),

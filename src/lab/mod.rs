@@ -205,10 +205,7 @@ impl Scenario {
 
     /// The truth model: the file named in the scenario, or the paper model.
     pub fn truth_model(&self) -> Result<Model, LabError> {
-        match &self.truth {
-            None => Ok(Model::paper()),
-            Some(p) => Ok(Model::load(p)?),
-        }
+        Ok(Model::load_or_paper(self.truth.as_deref())?)
     }
 }
 

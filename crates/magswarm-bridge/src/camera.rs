@@ -184,15 +184,34 @@ pub struct Radii {
     pub invalid: Option<String>,
 }
 
+/// A camera (or its measurement) that cannot be set up from the config.
+#[derive(Debug, thiserror::Error)]
+pub enum CameraSetupError {
+    /// `[vision]` does not describe a vision configuration.
+    #[error("[vision]: {0}")]
+    Vision(#[from] toml::de::Error),
+    /// A model file of the config (the emulated camera's).
+    #[error(transparent)]
+    Config(#[from] crate::config::ConfigError),
+    /// A replay without a folder.
+    #[error("[camera] dir: a replay needs a frame folder")]
+    NoFolder,
+    /// The camera (or the frame folder) cannot be opened.
+    #[error("[camera] {0}")]
+    Open(#[from] CameraError),
+    /// A kind this build does not have.
+    #[error(
+        "[camera] kind {0:?}: not available in this build (\"aravis\" needs `--features aravis` and libaravis-dev)"
+    )]
+    Unavailable(String),
+}
+
 /// The `[vision]` table as the vision crate's config.
-pub fn vision_config(vision: Option<&toml::Table>) -> Result<VisionConfig, String> {
-    match vision {
-        Some(t) => t
-            .clone()
-            .try_into::<VisionConfig>()
-            .map_err(|e| format!("[vision]: {e}")),
-        None => Ok(VisionConfig::default()),
-    }
+pub fn vision_config(vision: Option<&toml::Table>) -> Result<VisionConfig, CameraSetupError> {
+    Ok(match vision {
+        Some(t) => t.clone().try_into::<VisionConfig>()?,
+        None => VisionConfig::default(),
+    })
 }
 
 /// Measures frames (keeps the vision buffers between frames).
@@ -204,7 +223,7 @@ pub struct Measurer {
 
 impl Measurer {
     /// A measurer with the `[vision]` table of the config (default: Otsu, dark swarm).
-    pub fn new(vision: Option<&toml::Table>, mm_per_px: f64) -> Result<Measurer, String> {
+    pub fn new(vision: Option<&toml::Table>, mm_per_px: f64) -> Result<Measurer, CameraSetupError> {
         Ok(Measurer {
             vision: Vision::new(),
             cfg: vision_config(vision)?,
@@ -232,24 +251,17 @@ pub fn from_config(
     cfg: &crate::config::RigConfig,
     start: (f64, f64),
     probe: InputProbe,
-) -> Result<Box<dyn Camera>, String> {
+) -> Result<Box<dyn Camera>, CameraSetupError> {
     let c = &cfg.camera;
     match c.kind.as_str() {
         "replay" => {
-            let dir = cfg.resolve(c.dir.as_ref().ok_or("[camera] dir: a replay needs a frame folder")?);
+            let dir = cfg.resolve(c.dir.as_ref().ok_or(CameraSetupError::NoFolder)?);
             Ok(Box::new(
-                magswarm_vision::replay::ReplayCamera::open(&dir)
-                    .map_err(|e| format!("[camera] {e}"))?,
+                magswarm_vision::replay::ReplayCamera::open(&dir).map_err(CameraError::from)?,
             ))
         }
         "emulated" => {
-            let model = match &c.model {
-                Some(p) => {
-                    let p = cfg.resolve(p);
-                    Model::load(&p).map_err(|e| format!("[camera] model {}: {e}", p.display()))?
-                }
-                None => Model::paper(),
-            };
+            let model = cfg.model("camera.model", c.model.as_ref())?;
             Ok(emulated(
                 model,
                 start,
@@ -271,10 +283,8 @@ pub fn from_config(
                 region: c.region,
                 buffers: 8,
             };
-            Ok(Box::new(AravisCamera::open(&a).map_err(|e| format!("[camera] {e}"))?))
+            Ok(Box::new(AravisCamera::open(&a)?))
         }
-        k => Err(format!(
-            "[camera] kind {k:?}: not available in this build (\"aravis\" needs `--features aravis` and libaravis-dev)"
-        )),
+        k => Err(CameraSetupError::Unavailable(k.to_string())),
     }
 }

@@ -9,6 +9,21 @@ use crate::rtde::RtdeClient;
 use crate::stepper::{self, Stepper as _};
 use crate::ur::Dashboard;
 
+/// Why a probe failed (its text is the probe's detail).
+#[derive(Debug, thiserror::Error)]
+enum ProbeError {
+    #[error(transparent)]
+    Rtde(#[from] crate::rtde::RtdeError),
+    #[error("{0}: safety_mode is not NORMAL (operator must clear it)")]
+    NotNormal(String),
+    #[error(transparent)]
+    Setup(#[from] camera::CameraSetupError),
+    #[error(transparent)]
+    Camera(#[from] camera::CameraError),
+    #[error("{desc}: no frame within {wait:.1} s")]
+    NoFrame { desc: String, wait: f64 },
+}
+
 /// One probe's outcome.
 #[derive(Debug, Clone)]
 pub struct Probe {
@@ -26,19 +41,16 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
     let r = &cfg.robot;
     let to = Duration::from_secs(2);
     // RTDE: handshake and one state. The input recipe is not set up (nothing is written).
-    let rtde = (|| -> Result<String, String> {
-        let link_probe = RtdeClient::connect(&r.host, r.rtde_port, to)
-            .and_then(|mut c| {
-                c.negotiate_protocol_version()?;
-                let v = c.controller_version()?;
-                let rec =
-                    c.setup_outputs(r.frequency_hz.min(125.0), &crate::rtde::client::OUTPUTS)?;
-                c.start()?;
-                let vals = c.receive(&rec)?;
-                let _ = c.pause();
-                Ok((v, vals))
-            })
-            .map_err(|e| e.to_string())?;
+    let rtde = (|| -> Result<String, ProbeError> {
+        let link_probe = RtdeClient::connect(&r.host, r.rtde_port, to).and_then(|mut c| {
+            c.negotiate_protocol_version()?;
+            let v = c.controller_version()?;
+            let rec = c.setup_outputs(r.frequency_hz.min(125.0), &crate::rtde::client::OUTPUTS)?;
+            c.start()?;
+            let vals = c.receive(&rec)?;
+            let _ = c.pause();
+            Ok((v, vals))
+        })?;
         let (v, vals) = link_probe;
         let pose = match vals[1] {
             crate::rtde::proto::Value::V6(p) => p,
@@ -58,9 +70,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
             runtime_state::name(rs)
         );
         if sm != safety_mode::NORMAL {
-            return Err(format!(
-                "{detail}: safety_mode is not NORMAL (operator must clear it)"
-            ));
+            return Err(ProbeError::NotNormal(detail));
         }
         Ok(detail)
     })();
@@ -73,7 +83,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
         Err(e) => Probe {
             device: "robot rtde",
             ok: false,
-            detail: e,
+            detail: e.to_string(),
         },
     });
     if r.dashboard_port != 0 {
@@ -91,7 +101,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
                 Err(e) => Probe {
                     device: "robot dashboard",
                     ok: false,
-                    detail: e,
+                    detail: e.to_string(),
                 },
             },
         );
@@ -139,18 +149,15 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
     );
     // Camera: one frame, measured.
     let c = &cfg.camera;
-    let cam = (|| -> Result<String, String> {
+    let cam = (|| -> Result<String, ProbeError> {
         let t0 = Instant::now();
         let src = camera::from_config(cfg, (8.5, 4.0), std::sync::Arc::new(|| None))?;
-        let mut src = camera::Threaded::spawn(src, t0, None).map_err(|e| e.to_string())?;
+        let mut src = camera::Threaded::spawn(src, t0, None)?;
         let desc = src.describe().to_string();
         let wait = c.timeout_s.max(1.0);
         let deadline = Instant::now() + Duration::from_secs_f64(wait);
         loop {
-            match src
-                .next(Duration::from_millis(50))
-                .map_err(|e| e.to_string())?
-            {
+            match src.next(Duration::from_millis(50))? {
                 Some(f) => {
                     let mut m = Measurer::new(cfg.vision.as_ref(), c.mm_per_px)?;
                     let r = m.measure(&f.image);
@@ -166,7 +173,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
                     ));
                 }
                 None if Instant::now() > deadline => {
-                    return Err(format!("{desc}: no frame within {wait:.1} s"))
+                    return Err(ProbeError::NoFrame { desc, wait })
                 }
                 None => {}
             }
@@ -181,7 +188,7 @@ pub fn check(cfg: &RigConfig) -> Vec<Probe> {
         Err(e) => Probe {
             device: "camera",
             ok: false,
-            detail: e,
+            detail: e.to_string(),
         },
     });
     out

@@ -26,6 +26,16 @@ pub enum ConfigError {
         /// toml's message.
         message: String,
     },
+    /// A model file named by the config cannot be read.
+    #[error("{key} = {path}: {message}")]
+    Model {
+        /// Dotted key path (`shadow.model`).
+        key: &'static str,
+        /// The model file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
     /// A value out of range.
     #[error("{path}: `{key}`: {message}")]
     Invalid {
@@ -43,6 +53,9 @@ type Extra = BTreeMap<String, toml::Value>;
 /// `[robot]`.
 #[derive(Debug, Clone, Deserialize)]
 pub struct Robot {
+    /// Which arm (`"ur"`, the default: a UR e-Series controller).
+    #[serde(default = "d_ur")]
+    pub kind: String,
     /// Controller address.
     pub host: String,
     /// RTDE port (30004).
@@ -65,6 +78,10 @@ pub struct Robot {
     /// URScript watchdog frequency on the heartbeat register \[Hz\].
     #[serde(default = "d_watchdog")]
     pub watchdog_hz: f64,
+    /// Standard digital output (0..=7) wired to the stepper driver's enable: the servo
+    /// program sets it high; PolyScope's "Low when not running" drops it when it stops.
+    #[serde(default)]
+    pub stepper_enable_output: Option<u8>,
     /// Keys not known to the bridge.
     #[serde(flatten)]
     pub extra: Extra,
@@ -95,6 +112,13 @@ pub struct StepperCfg {
     /// Reply timeout \[s\].
     #[serde(default = "d_reply_timeout")]
     pub reply_timeout_s: f64,
+    /// The stepper watchdog stops the motor when the bridge sends nothing for this long \[s\]
+    /// (a hung bridge; a dead one is noticed at once).
+    #[serde(default = "d_watchdog_timeout")]
+    pub watchdog_timeout_s: f64,
+    /// The watchdog program (default: `magswarm-stepper-watchdog` beside the running program).
+    #[serde(default)]
+    pub watchdog_exe: Option<PathBuf>,
     /// Keys not known to the bridge.
     #[serde(flatten)]
     pub extra: Extra,
@@ -256,6 +280,9 @@ impl Default for ShadowCfg {
     }
 }
 
+fn d_ur() -> String {
+    "ur".into()
+}
 fn d_rtde() -> u16 {
     30004
 }
@@ -285,6 +312,9 @@ fn d_one() -> u8 {
 }
 fn d_reply_timeout() -> f64 {
     0.1
+}
+fn d_watchdog_timeout() -> f64 {
+    0.25
 }
 fn d_cam_timeout() -> f64 {
     0.5
@@ -336,6 +366,26 @@ impl RigConfig {
         }
     }
 
+    /// The model a key names (`[shadow] model`, `[control] model`, `[camera] model`), or the
+    /// paper model when the key is absent.
+    pub fn model(
+        &self,
+        key: &'static str,
+        p: Option<&PathBuf>,
+    ) -> Result<magswarm_model::Model, ConfigError> {
+        match p {
+            None => Ok(magswarm_model::Model::paper()),
+            Some(p) => {
+                let path = self.resolve(p);
+                magswarm_model::Model::load(&path).map_err(|e| ConfigError::Model {
+                    key,
+                    path,
+                    message: e.to_string(),
+                })
+            }
+        }
+    }
+
     fn validate(&self, path: &Path) -> Result<(), ConfigError> {
         let bad = |key: &str, message: String| ConfigError::Invalid {
             path: path.into(),
@@ -367,6 +417,10 @@ impl RigConfig {
             ("robot.watchdog_hz", self.robot.watchdog_hz),
             ("stepper.velocity_per_hz", self.stepper.velocity_per_hz),
             ("stepper.reply_timeout_s", self.stepper.reply_timeout_s),
+            (
+                "stepper.watchdog_timeout_s",
+                self.stepper.watchdog_timeout_s,
+            ),
             ("camera.mm_per_px", self.camera.mm_per_px),
             ("camera.timeout_s", self.camera.timeout_s),
             ("camera.fps", self.camera.fps),
@@ -389,6 +443,24 @@ impl RigConfig {
         }
         if self.robot.host.trim().is_empty() {
             return Err(bad("robot.host", "empty".into()));
+        }
+        if let Some(n) = self.robot.stepper_enable_output {
+            if n > 7 {
+                return Err(bad(
+                    "robot.stepper_enable_output",
+                    format!("{n}: the control box has standard digital outputs 0 to 7"),
+                ));
+            }
+        }
+        if !crate::robot::KINDS.contains(&self.robot.kind.as_str()) {
+            return Err(bad(
+                "robot.kind",
+                format!(
+                    "{:?} is not a known robot (known: {:?})",
+                    self.robot.kind,
+                    crate::robot::KINDS
+                ),
+            ));
         }
         if self.stepper.kind != "tmcl" {
             return Err(bad(

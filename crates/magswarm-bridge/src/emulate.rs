@@ -2,7 +2,7 @@
 
 use crate::config::RigConfig;
 use crate::rtde::server::{RobotSimConfig, UrEmulator};
-use crate::stepper_emu::{StepperEmulator, StepperFault, StepperSimConfig};
+use crate::stepper_emu::{PtyError, StepperEmulator, StepperFault, StepperSimConfig};
 
 /// The running emulators.
 pub struct Emulators {
@@ -33,8 +33,24 @@ pub fn robot_sim_config(cfg: &RigConfig) -> RobotSimConfig {
     }
 }
 
+/// An emulator that could not be started.
+#[derive(Debug, thiserror::Error)]
+pub enum EmulateError {
+    /// The UR controller's ports could not be bound.
+    #[error("emulated robot on {host}: {source}")]
+    Robot {
+        /// `robot.host`.
+        host: String,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// The TMCL module's pty could not be opened.
+    #[error("emulated stepper: {0}")]
+    Stepper(#[from] PtyError),
+}
+
 /// Start every emulator. `ports_from_config`: bind the config's ports (else free ports).
-pub fn start(cfg: &RigConfig, ports_from_config: bool) -> Result<Emulators, String> {
+pub fn start(cfg: &RigConfig, ports_from_config: bool) -> Result<Emulators, EmulateError> {
     let r = &cfg.robot;
     let p = |port: u16| if ports_from_config { port } else { 0 };
     let robot = UrEmulator::start(
@@ -44,7 +60,10 @@ pub fn start(cfg: &RigConfig, ports_from_config: bool) -> Result<Emulators, Stri
         (r.script_port != 0).then(|| p(r.script_port)),
         robot_sim_config(cfg),
     )
-    .map_err(|e| format!("emulated robot on {}: {e}", r.host))?;
+    .map_err(|e| EmulateError::Robot {
+        host: r.host.clone(),
+        source: e,
+    })?;
     let fault = match cfg.emulator.stepper_fault.as_deref() {
         Some("checksum") => StepperFault::Checksum,
         Some("silent") => StepperFault::Silent,

@@ -10,17 +10,23 @@
 //! Nothing here is linked into the FMU libraries: sockets, serial lines and ptys stay in
 //! this crate.
 
+pub mod bake;
 pub mod camera;
 pub mod check;
 pub mod config;
 pub mod emulate;
+pub mod error;
 pub mod measure;
 pub mod plant;
 pub mod rig;
+pub mod robot;
 pub mod rtde;
 pub mod run;
 pub mod safety;
 pub mod schedule;
+pub mod session;
+pub mod shadow;
 pub mod stepper;
 pub mod stepper_emu;
 pub mod ur;
+pub mod watchdog;

@@ -1,4 +1,6 @@
-//! `magswarm-bridge`: run, check, emulate, measure.
+//! `magswarm-bridge`: run, check, emulate, measure, fmu.
+
+mod package_fmu;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -56,6 +58,30 @@ enum Cmd {
         /// Stop after this many seconds (default: until SIGINT/SIGTERM).
         #[arg(long)]
         duration: Option<f64>,
+        /// Write every TMCL instruction the emulated stepper receives to this CSV
+        /// (`t_unix_s,instruction,type,value`, appended within 20 ms), for tests and demos.
+        #[arg(long)]
+        trace: Option<PathBuf>,
+    },
+    /// Build MagSwarmRig.fmu: the rig as an FMI 2.0 Co-Simulation FMU (MagSwarm.fmu's
+    /// variables, doStep paced to the wall clock), with the config baked in.
+    Fmu {
+        /// Rig configuration (TOML) to bake into the FMU.
+        #[arg(long)]
+        config: PathBuf,
+        /// The FMU to write.
+        #[arg(long, default_value = "MagSwarmRig.fmu")]
+        out: PathBuf,
+        /// The compiled rig FMU library (default: build it with cargo in a source tree, or
+        /// take libmagswarm_rig_fmu.so beside this executable; or $MAGSWARM_RIG_FMU_LIB).
+        #[arg(long)]
+        lib: Option<PathBuf>,
+        /// Do not run cargo; package the library found beside this executable.
+        #[arg(long)]
+        no_build: bool,
+        /// The stepper watchdog program to ship (default: beside this executable).
+        #[arg(long)]
+        watchdog: Option<PathBuf>,
     },
     /// Re-measure a recorded frame folder: one row per frame.
     Measure {
@@ -85,7 +111,41 @@ fn load(path: &Path) -> Result<RigConfig, String> {
     Ok(c)
 }
 
+/// The library reports through `log`; the program prints it on stderr (level from
+/// `$MAGSWARM_LOG`: error, warn, info (default), debug, trace).
+struct StderrLog;
+
+impl log::Log for StderrLog {
+    fn enabled(&self, m: &log::Metadata<'_>) -> bool {
+        m.level() <= log::max_level()
+    }
+
+    fn log(&self, r: &log::Record<'_>) {
+        if self.enabled(r.metadata()) {
+            let level = match r.level() {
+                log::Level::Error => "error",
+                log::Level::Warn => "warning",
+                log::Level::Info => "info",
+                log::Level::Debug => "debug",
+                log::Level::Trace => "trace",
+            };
+            eprintln!("magswarm-bridge: {level}: {}", r.args());
+        }
+    }
+
+    fn flush(&self) {}
+}
+
+static LOGGER: StderrLog = StderrLog;
+
 fn main() -> ExitCode {
+    let _ = log::set_logger(&LOGGER);
+    log::set_max_level(
+        std::env::var("MAGSWARM_LOG")
+            .ok()
+            .and_then(|l| l.parse().ok())
+            .unwrap_or(log::LevelFilter::Info),
+    );
     let cli = Cli::parse();
     match cli.cmd {
         Cmd::Run {
@@ -163,7 +223,11 @@ fn main() -> ExitCode {
                 ExitCode::from(1)
             }
         }
-        Cmd::Emulate { config, duration } => {
+        Cmd::Emulate {
+            config,
+            duration,
+            trace,
+        } => {
             let signals = match Signals::install() {
                 Ok(s) => s,
                 Err(e) => return fail(format!("installing signal handlers: {e}")),
@@ -174,7 +238,7 @@ fn main() -> ExitCode {
             };
             let emu = match magswarm_bridge::emulate::start(&cfg, true) {
                 Ok(e) => e,
-                Err(e) => return fail(e),
+                Err(e) => return fail(e.to_string()),
             };
             // Make the config's stepper device point at the pty (a symlink), unless it is a
             // real device.
@@ -195,8 +259,15 @@ fn main() -> ExitCode {
             println!("ready");
             use std::io::Write;
             let _ = std::io::stdout().flush();
+            let mut tracer = match trace.as_deref().map(StepperTrace::create).transpose() {
+                Ok(t) => t,
+                Err(e) => return fail(e),
+            };
             let t0 = std::time::Instant::now();
             loop {
+                if let Some(t) = tracer.as_mut() {
+                    t.append(&emu.stepper.received());
+                }
                 if signals.int.load(std::sync::atomic::Ordering::SeqCst)
                     || signals.term.load(std::sync::atomic::Ordering::SeqCst)
                 {
@@ -206,6 +277,9 @@ fn main() -> ExitCode {
                     break;
                 }
                 std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+            if let Some(t) = tracer.as_mut() {
+                t.append(&emu.stepper.received());
             }
             let rec = emu.robot.record();
             let (lo, hi) = rec
@@ -228,6 +302,31 @@ fn main() -> ExitCode {
                 let _ = std::fs::remove_file(dev);
             }
             ExitCode::SUCCESS
+        }
+        Cmd::Fmu {
+            config,
+            out,
+            lib,
+            no_build,
+            watchdog,
+        } => {
+            if let Err(e) = load(&config) {
+                return fail(e);
+            }
+            let req = package_fmu::Request {
+                config: &config,
+                out: &out,
+                lib,
+                no_build,
+                watchdog,
+            };
+            match package_fmu::package(&req) {
+                Ok(summary) => {
+                    println!("{summary}");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => fail(format!("{e:#}")),
+            }
         }
         Cmd::Measure {
             frames,
@@ -255,6 +354,38 @@ fn main() -> ExitCode {
                 Err(e) => fail(format!("{e:#}")),
             }
         }
+    }
+}
+
+/// `emulate --trace`: the emulated stepper's instructions with wall-clock times.
+struct StepperTrace {
+    out: std::io::BufWriter<std::fs::File>,
+    written: usize,
+}
+
+impl StepperTrace {
+    fn create(path: &Path) -> Result<StepperTrace, String> {
+        use std::io::Write;
+        let f =
+            std::fs::File::create(path).map_err(|e| format!("--trace {}: {e}", path.display()))?;
+        let mut out = std::io::BufWriter::new(f);
+        let _ = writeln!(out, "t_unix_s,instruction,type,value").and_then(|_| out.flush());
+        Ok(StepperTrace { out, written: 0 })
+    }
+
+    fn append(&mut self, received: &[magswarm_bridge::stepper_emu::Received]) {
+        use std::io::Write;
+        let (now_i, now_u) = (std::time::Instant::now(), std::time::SystemTime::now());
+        let unix = now_u
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs_f64())
+            .unwrap_or(0.0);
+        for r in received.iter().skip(self.written) {
+            let t = unix - now_i.duration_since(r.at).as_secs_f64();
+            let _ = writeln!(self.out, "{t:.6},{},{},{}", r.instruction, r.typ, r.value);
+        }
+        self.written = received.len().max(self.written);
+        let _ = self.out.flush();
     }
 }
 

@@ -13,12 +13,13 @@ use std::sync::Arc;
 
 use magswarm_control::{Controller, PidConfig};
 use magswarm_log::{Layout, LogRow, LogWriter};
-use magswarm_model::{Model, Plant};
 
 use crate::config::RigConfig;
+use crate::error::SetupError;
 use crate::rig::{Poll, Rig};
 use crate::safety::{Envelope, Fault, FaultLatch};
 use crate::schedule::Schedule;
+use crate::shadow::Shadow;
 
 /// A caller's law: (t \[s\], measured radii \[mm\] when the frame is valid) -> (z_m \[mm\], f \[Hz\]).
 pub type Law = Arc<std::sync::Mutex<dyn FnMut(f64, Option<[f64; 2]>) -> (f64, f64) + Send>>;
@@ -108,16 +109,6 @@ struct LogCols {
     n_extra: usize,
 }
 
-fn load_model(cfg: &RigConfig, p: &Option<PathBuf>, what: &str) -> anyhow::Result<Model> {
-    Ok(match p {
-        Some(p) => {
-            let p = cfg.resolve(p);
-            Model::load(&p).map_err(|e| anyhow::anyhow!("{what} model {}: {e}", p.display()))?
-        }
-        None => Model::paper(),
-    })
-}
-
 /// Run. Setup errors (config, files, devices that cannot be reached) are `Err`; faults
 /// during the run are in the report.
 pub fn run(
@@ -125,7 +116,7 @@ pub fn run(
     opts: &RunOptions,
     signals: &Signals,
     latch: &FaultLatch,
-) -> anyhow::Result<RunReport> {
+) -> Result<RunReport, SetupError> {
     run_with_camera(cfg, opts, signals, latch, None)
 }
 
@@ -137,34 +128,47 @@ pub fn run_with_camera(
     signals: &Signals,
     latch: &FaultLatch,
     camera_override: Option<Box<dyn magswarm_vision::camera::Camera>>,
-) -> anyhow::Result<RunReport> {
+) -> Result<RunReport, SetupError> {
     let env = Envelope::from(&cfg.limits);
     let duration = match (opts.duration, &opts.mode) {
         (Some(d), _) => d,
-        (None, Mode::Plan(s)) | (None, Mode::Targets(s)) => s
-            .default_duration()
-            .ok_or_else(|| anyhow::anyhow!("the schedule has a single row: give --duration"))?,
-        (None, Mode::Law(_)) => anyhow::bail!("a law needs a duration"),
+        (None, Mode::Plan(s)) | (None, Mode::Targets(s)) => {
+            s.default_duration().ok_or_else(|| {
+                SetupError::Duration("the schedule has a single row: give --duration".into())
+            })?
+        }
+        (None, Mode::Law(_)) => return Err(SetupError::Duration("a law needs a duration".into())),
     };
     if !(duration.is_finite() && duration > 0.0) {
-        anyhow::bail!("--duration {duration} must be a positive number of seconds");
+        return Err(SetupError::Duration(format!(
+            "--duration {duration} must be a positive number of seconds"
+        )));
     }
 
     // Controller (targets) and start inputs.
-    let ctrl_model = load_model(cfg, &cfg.control.model, "[control]")?;
+    let ctrl_model = cfg.model("control.model", cfg.control.model.as_ref())?;
     let mut controller = match &opts.mode {
         Mode::Targets(_) => {
             let pid = match &cfg.control.pid {
                 Some(p) => {
                     let p = cfg.resolve(p);
-                    let t = std::fs::read_to_string(&p)
-                        .map_err(|e| anyhow::anyhow!("[control] pid {}: {e}", p.display()))?;
-                    PidConfig::from_json(&t)
-                        .map_err(|e| anyhow::anyhow!("[control] pid {}: {e}", p.display()))?
+                    let t = std::fs::read_to_string(&p).map_err(|e| SetupError::File {
+                        path: p.clone(),
+                        source: e,
+                    })?;
+                    PidConfig::from_json(&t).map_err(|e| SetupError::Controller {
+                        what: format!("pid {}", p.display()),
+                        source: e,
+                    })?
                 }
                 None => PidConfig::default(),
             };
-            Some(Controller::new(ctrl_model.clone(), pid).map_err(|e| anyhow::anyhow!("{e}"))?)
+            Some(
+                Controller::new(ctrl_model.clone(), pid).map_err(|e| SetupError::Controller {
+                    what: "the controller".into(),
+                    source: e,
+                })?,
+            )
         }
         Mode::Plan(_) | Mode::Law(_) => None,
     };
@@ -179,16 +183,7 @@ pub fn run_with_camera(
     );
 
     // Shadow model.
-    let mut shadow = if cfg.shadow.enabled {
-        let m = load_model(cfg, &cfg.shadow.model, "[shadow]")?;
-        Some(Plant::new(
-            m,
-            start.0 * 1e-3,
-            magswarm_model::hz_to_rad_s(start.1),
-        ))
-    } else {
-        None
-    };
+    let mut shadow = Shadow::from_config(cfg, start)?;
 
     // The log, flushed every row.
     let mut layout = Layout::standard(true, false, true, controller.is_some());
@@ -209,10 +204,12 @@ pub fn run_with_camera(
         fault: fault_col,
         n_extra: layout.extra_columns.len(),
     };
-    let mut log = LogWriter::create(&opts.log, layout)
-        .map_err(|e| anyhow::anyhow!("log {}: {e}", opts.log.display()))?;
-    log.flush()
-        .map_err(|e| anyhow::anyhow!("log {}: {e}", opts.log.display()))?;
+    let log_err = |e| SetupError::File {
+        path: opts.log.clone(),
+        source: e,
+    };
+    let mut log = LogWriter::create(&opts.log, layout).map_err(log_err)?;
+    log.flush().map_err(log_err)?;
 
     let mut rig = Rig::open(cfg, opts.dry_run, start, signals.clone(), camera_override)?;
     let t0 = rig.t0;
@@ -274,17 +271,7 @@ pub fn run_with_camera(
             rig.command(req)?;
             latencies.push(m.frame.arrived.elapsed().as_secs_f64());
             // Shadow model under the inputs in force up to t.
-            let mut sh = None;
-            if let Some(p) = shadow.as_mut() {
-                let dt = t - p.time();
-                if dt > 0.0 {
-                    p.set_inputs(applied.0 * 1e-3, magswarm_model::hz_to_rad_s(applied.1));
-                    let _ = p.step(dt);
-                }
-                // The shadow is compared with the camera's radii: its observed outputs.
-                let o = p.outputs();
-                sh = Some([o.r1, o.r2]);
-            }
+            let sh = shadow.as_mut().map(|p| p.advance(t, applied));
             let mut row = LogRow::new(t, applied.0, applied.1, valid.then_some([r.r1_mm, r.r2_mm]));
             row.valid = valid;
             if let Some(sp) = refs {
@@ -354,14 +341,13 @@ pub fn percentile(v: &[f64], p: f64) -> f64 {
 }
 
 /// Read a PLAN or TARGETS file.
-pub fn read_mode(plan: Option<&Path>, targets: Option<&Path>) -> anyhow::Result<Mode> {
+pub fn read_mode(plan: Option<&Path>, targets: Option<&Path>) -> Result<Mode, SetupError> {
     match (plan, targets) {
-        (Some(p), None) => Ok(Mode::Plan(
-            Schedule::read(p, ["z_m_mm", "f_hz"]).map_err(|e| anyhow::anyhow!(e))?,
-        )),
-        (None, Some(t)) => Ok(Mode::Targets(
-            Schedule::read(t, ["r1_ref_mm", "r2_ref_mm"]).map_err(|e| anyhow::anyhow!(e))?,
-        )),
-        _ => anyhow::bail!("give exactly one of --plan PLAN.csv and --targets TARGETS.csv"),
+        (Some(p), None) => Ok(Mode::Plan(Schedule::read(p, ["z_m_mm", "f_hz"])?)),
+        (None, Some(t)) => Ok(Mode::Targets(Schedule::read(
+            t,
+            ["r1_ref_mm", "r2_ref_mm"],
+        )?)),
+        _ => Err(SetupError::PlanOrTargets),
     }
 }

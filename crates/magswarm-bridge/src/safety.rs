@@ -32,6 +32,10 @@ pub enum Fault {
     Signal(String),
     /// Writing the log failed.
     Log(String),
+    /// The stepper watchdog process died, or stopped the motor because the bridge was silent.
+    Watchdog(String),
+    /// The host of the rig FMU stopped calling it (no `fmi2DoStep` long after it was due).
+    HostStalled(String),
 }
 
 impl Fault {
@@ -48,6 +52,8 @@ impl Fault {
             Fault::NanCommand(_) => "nan_command",
             Fault::Signal(_) => "signal",
             Fault::Log(_) => "log_error",
+            Fault::Watchdog(_) => "stepper_watchdog",
+            Fault::HostStalled(_) => "host_stalled",
         }
     }
 }
@@ -69,6 +75,8 @@ impl std::fmt::Display for Fault {
             Fault::NanCommand(w) => write!(f, "non-finite command: {w}"),
             Fault::Signal(s) => write!(f, "stopped by {s}"),
             Fault::Log(w) => write!(f, "log write failed: {w}"),
+            Fault::Watchdog(w) => write!(f, "stepper watchdog: {w}"),
+            Fault::HostStalled(w) => write!(f, "the FMU's host stalled: {w}"),
         }
     }
 }

@@ -130,6 +130,9 @@ pub enum StepperError {
     /// A command out of range.
     #[error("stepper command rejected: {0}")]
     Command(String),
+    /// The stepper watchdog process is missing, died, or stopped the motor on silence.
+    #[error("stepper watchdog: {0}")]
+    Watchdog(String),
 }
 
 /// A driver that spins the magnet.
@@ -289,102 +292,6 @@ pub fn open_serial(
         .map_err(|e| StepperError::Serial(format!("opening {device} at {baud} baud: {e}")))?;
     let _ = port.clear(serialport::ClearBuffer::All);
     Ok(Tmcl::new(port, address, motor, velocity_per_hz))
-}
-
-/// A stepper driven from its own thread, so a slow serial line (a TMCL transaction takes
-/// about 20 ms at 9600 baud) never delays the control loop: the loop hands over the
-/// frequency; the thread sends ROR when it changes, polls the actual speed otherwise (so a
-/// dead or misbehaving module is noticed), and sends MST on [`StepperThread::stop`] or drop.
-pub struct StepperThread {
-    tx: std::sync::mpsc::Sender<Option<f64>>,
-    error: std::sync::Arc<std::sync::Mutex<Option<StepperError>>>,
-    handle: Option<std::thread::JoinHandle<()>>,
-}
-
-impl StepperThread {
-    /// Start the thread; `poll` is the period of the speed poll when nothing changes.
-    pub fn spawn(mut dev: Box<dyn Stepper>, poll: Duration) -> StepperThread {
-        let (tx, rx) = std::sync::mpsc::channel::<Option<f64>>();
-        let error = std::sync::Arc::new(std::sync::Mutex::new(None));
-        let err2 = error.clone();
-        let handle = std::thread::Builder::new()
-            .name("stepper".into())
-            .spawn(move || {
-                let mut sent: Option<f64> = None;
-                let mut want: Option<f64> = None;
-                let fail = |e: StepperError| {
-                    if let Ok(mut g) = err2.lock() {
-                        g.get_or_insert(e);
-                    }
-                };
-                loop {
-                    match rx.recv_timeout(poll) {
-                        Ok(Some(f)) => {
-                            want = Some(f);
-                            // Only the newest request matters.
-                            while let Ok(m) = rx.try_recv() {
-                                match m {
-                                    Some(f) => want = Some(f),
-                                    None => {
-                                        let _ = dev.stop();
-                                        return;
-                                    }
-                                }
-                            }
-                        }
-                        Ok(None) | Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                            if let Err(e) = dev.stop() {
-                                fail(e);
-                            }
-                            return;
-                        }
-                        Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {}
-                    }
-                    let failed = err2.lock().map(|g| g.is_some()).unwrap_or(true);
-                    if failed {
-                        continue; // wait for the stop
-                    }
-                    let r = match want {
-                        Some(f) if sent != Some(f) => dev.rotate_hz(f).map(|_| sent = Some(f)),
-                        _ => dev.actual_hz().map(|_| ()),
-                    };
-                    if let Err(e) = r {
-                        fail(e);
-                        let _ = dev.stop();
-                    }
-                }
-            })
-            .expect("spawn the stepper thread");
-        StepperThread {
-            tx,
-            error,
-            handle: Some(handle),
-        }
-    }
-
-    /// Ask for a frequency \[Hz\].
-    pub fn rotate_hz(&self, f_hz: f64) {
-        let _ = self.tx.send(Some(f_hz));
-    }
-
-    /// The first error the thread met, if any (taken: reported once).
-    pub fn take_error(&self) -> Option<StepperError> {
-        self.error.lock().ok().and_then(|mut g| g.take())
-    }
-
-    /// Stop the motor (MST) and end the thread.
-    pub fn stop(&mut self) {
-        let _ = self.tx.send(None);
-        if let Some(h) = self.handle.take() {
-            let _ = h.join();
-        }
-    }
-}
-
-impl Drop for StepperThread {
-    fn drop(&mut self) {
-        self.stop();
-    }
 }
 
 #[cfg(test)]

@@ -12,6 +12,22 @@ use nix::sys::termios;
 
 use crate::stepper::{axis, cmd, request, Reply};
 
+/// The emulated module could not be started.
+#[derive(Debug, thiserror::Error)]
+pub enum PtyError {
+    /// A pseudo-terminal call failed.
+    #[error("{call}: {source}")]
+    Call {
+        /// The call.
+        call: &'static str,
+        /// Its error.
+        source: nix::Error,
+    },
+    /// The serving thread could not be started.
+    #[error("starting the emulator's thread: {0}")]
+    Thread(std::io::Error),
+}
+
 /// How the emulated module misbehaves, if at all.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StepperFault {
@@ -84,18 +100,18 @@ pub struct StepperEmulator {
 
 impl StepperEmulator {
     /// Open a pty pair and serve.
-    pub fn start(cfg: StepperSimConfig) -> Result<StepperEmulator, String> {
-        let pty = openpty(None, None).map_err(|e| format!("openpty: {e}"))?;
-        let mut t = termios::tcgetattr(pty.slave.as_fd()).map_err(|e| format!("tcgetattr: {e}"))?;
+    pub fn start(cfg: StepperSimConfig) -> Result<StepperEmulator, PtyError> {
+        let err = |call: &'static str| move |source| PtyError::Call { call, source };
+        let pty = openpty(None, None).map_err(err("openpty"))?;
+        let mut t = termios::tcgetattr(pty.slave.as_fd()).map_err(err("tcgetattr"))?;
         termios::cfmakeraw(&mut t);
         termios::tcsetattr(pty.slave.as_fd(), termios::SetArg::TCSANOW, &t)
-            .map_err(|e| format!("tcsetattr: {e}"))?;
-        let mut tm =
-            termios::tcgetattr(pty.master.as_fd()).map_err(|e| format!("tcgetattr: {e}"))?;
+            .map_err(err("tcsetattr"))?;
+        let mut tm = termios::tcgetattr(pty.master.as_fd()).map_err(err("tcgetattr"))?;
         termios::cfmakeraw(&mut tm);
         let _ = termios::tcsetattr(pty.master.as_fd(), termios::SetArg::TCSANOW, &tm);
         let path = nix::unistd::ttyname(pty.slave.as_fd())
-            .map_err(|e| format!("ttyname: {e}"))?
+            .map_err(err("ttyname"))?
             .to_string_lossy()
             .into_owned();
         let state = Arc::new(Mutex::new(State::default()));
@@ -105,7 +121,7 @@ impl StepperEmulator {
         let thread = std::thread::Builder::new()
             .name("tmcl-emulator".into())
             .spawn(move || serve(master, cfg, st, sp))
-            .map_err(|e| e.to_string())?;
+            .map_err(PtyError::Thread)?;
         Ok(StepperEmulator {
             path,
             state,

@@ -3,7 +3,7 @@
 
 mod support;
 
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use magswarm_bridge::rtde::proto::runtime_state;
@@ -14,44 +14,12 @@ use support::*;
 
 const BIN: &str = env!("CARGO_BIN_EXE_magswarm-bridge");
 
-fn spawn_run(rig: &Rig, args: &[&str]) -> Child {
-    let plan = rig.dir.path().join("plan.csv");
-    std::fs::write(&plan, "t_s,z_m_mm,f_hz\n0,10,4\n1,12,5\n").unwrap();
-    Command::new(BIN)
-        .args(["run", "--config"])
-        .arg(&rig.cfg_path)
-        .arg("--plan")
-        .arg(&plan)
-        .arg("--log")
-        .arg(rig.log_path())
-        .args(args)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
-}
-
-/// Wait until the log has `n` rows (the run is under way).
-fn wait_rows(rig: &Rig, n: usize, limit: Duration) {
-    let t0 = Instant::now();
-    loop {
-        let rows = std::fs::read_to_string(rig.log_path())
-            .map(|t| t.lines().count().saturating_sub(1))
-            .unwrap_or(0);
-        if rows >= n {
-            return;
-        }
-        assert!(t0.elapsed() < limit, "only {rows} rows after {limit:?}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
 #[test]
 fn sigterm_and_sigint_stop_the_rig_and_exit_nonzero() {
     for sig in [Signal::SIGTERM, Signal::SIGINT] {
         let rig = rig(&config_text("", "", ""));
-        let child = spawn_run(&rig, &["--duration", "30"]);
-        wait_rows(&rig, 15, Duration::from_secs(20));
+        let child = rig.spawn_run(&rig.cfg_path, &["--duration", "30"]);
+        rig.wait_rows(15, Duration::from_secs(20));
         let cue = Instant::now();
         kill(Pid::from_raw(child.id() as i32), sig).unwrap();
         let out = child.wait_with_output().unwrap();
@@ -79,19 +47,44 @@ fn sigterm_and_sigint_stop_the_rig_and_exit_nonzero() {
 }
 
 #[test]
-fn sigkill_leaves_a_parseable_log_and_the_watchdog_stops_the_robot() {
-    let rig = rig(&config_text("", "", ""));
-    let mut child = spawn_run(&rig, &["--duration", "30"]);
-    wait_rows(&rig, 20, Duration::from_secs(20));
+fn sigkill_leaves_a_parseable_log_and_the_watchdogs_stop_stepper_and_robot() {
+    let rig = rig(&config_text("stepper_enable_output = 2", "", ""));
+    let mut child = rig.spawn_run(&rig.cfg_path, &["--duration", "30"]);
+    rig.wait_rows(20, Duration::from_secs(20));
+    assert!(
+        rig.emu.robot.digital_out(2),
+        "the servo program did not enable the stepper"
+    );
+    let cue = Instant::now();
     kill(Pid::from_raw(child.id() as i32), Signal::SIGKILL).unwrap();
     let st = child.wait().unwrap();
     assert_eq!(st.code(), None, "killed by a signal");
+    // The stepper watchdog saw the bridge's end of its link close and stopped the motor.
+    let t0 = Instant::now();
+    while rig.first_stop_after(cue).is_none() && t0.elapsed() < Duration::from_secs(2) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert_stop_within(&rig, cue, Duration::from_millis(150));
+    assert_eq!(
+        rig.emu.stepper.velocity(),
+        (0.0, 0.0),
+        "the magnet still turns"
+    );
     let log = Log::read(&rig.log_path()).expect("the log parses after SIGKILL");
     assert!(log.rows.len() >= 20, "{} rows", log.rows.len());
     assert!(log.rows.iter().all(|r| r.valid));
-    // No heartbeat any more: the program stops within the watchdog period (0.1 s).
-    std::thread::sleep(Duration::from_millis(300));
+    // No heartbeat any more: the program stops within the watchdog period (0.25 s here).
+    let t0 = Instant::now();
+    while rig.emu.robot.modes().2 != runtime_state::STOPPED && t0.elapsed() < Duration::from_secs(3)
+    {
+        std::thread::sleep(Duration::from_millis(10));
+    }
     assert_eq!(rig.emu.robot.modes().2, runtime_state::STOPPED);
+    // The hardware layer: the enable output dropped with the program.
+    assert!(
+        !rig.emu.robot.digital_out(2),
+        "the stepper enable output is still high"
+    );
     assert!(rig.emu.robot.record().watchdog_stops >= 1);
     rig.assert_targets_inside();
 }

@@ -187,6 +187,7 @@ fn dashboard_and_script_upload() {
         z_max_m: 0.42,
         z_rate_m_s: 0.02,
         watchdog_hz: 5.0,
+        enable_output: None,
     }
     .program();
     ur::upload_script(

@@ -727,6 +727,16 @@ pub trait FmuModel: Clone + Send + Sized + 'static {
     /// values as if they had been set (`Err` leaves `self` unusable; the shell discards it).
     fn restore_state(&mut self, state: Self::State) -> Result<(), Fmi2Err>;
 
+    /// Whether the instance can save and restore its state (`canGetAndSetFMUstate` and
+    /// `canSerializeFMUstate` in the XML). A model driving hardware cannot go back in time:
+    /// it sets this to `false`, and the shell refuses the six FMU-state functions, naming the
+    /// capability, without cloning or serializing the model.
+    const CAN_GET_AND_SET_FMU_STATE: bool = true;
+
+    /// Whether the instance answers `fmi2GetDirectionalDerivative`
+    /// (`providesDirectionalDerivative` in the XML); `false` makes the shell refuse the call.
+    const PROVIDES_DIRECTIONAL_DERIVATIVE: bool = true;
+
     /// `fmi2GetDirectionalDerivative`: `dv_unknown = J * dv_known` with J the Jacobian of the
     /// `unknowns` with respect to the `knowns` (inputs and states) at the current point. The
     /// shell has checked the references exist and are Real, and that `dv_known` is finite.

@@ -139,6 +139,24 @@ unsafe fn entry<M: FmuModel>(
                  function belongs to Model Exchange",
             );
         }
+        let unsupported = match func {
+            Func::GetFmuState
+            | Func::SetFmuState
+            | Func::FreeFmuState
+            | Func::SerializedFmuStateSize
+            | Func::SerializeFmuState
+            | Func::DeSerializeFmuState => !M::CAN_GET_AND_SET_FMU_STATE,
+            Func::GetDirectionalDerivative => !M::PROVIDES_DIRECTIONAL_DERIVATIVE,
+            _ => false,
+        };
+        if unsupported {
+            return i.fail(
+                func,
+                Fmi2Status::Error,
+                "not supported by this FMU (its modelDescription.xml says canGetAndSetFMUstate, \
+                 canSerializeFMUstate or providesDirectionalDerivative = false)",
+            );
+        }
         if !func.allowed_in(mode) {
             let hint = match func {
                 Func::CancelStep => " (fmi2DoStep of this FMU never returns fmi2Pending, so there is nothing to cancel)",

@@ -45,7 +45,24 @@ pub fn model_description_xml<M: FmuModel>(options: &XmlOptions) -> String {
 
 /// The modelDescription.xml of model `M`, or the list of problems with its table.
 pub fn try_model_description_xml<M: FmuModel>(options: &XmlOptions) -> Result<String, Vec<String>> {
-    model_description_xml_with(M::model_info(), options, M::MODEL_EXCHANGE)
+    let caps = Capabilities {
+        model_exchange: M::MODEL_EXCHANGE,
+        fmu_state: M::CAN_GET_AND_SET_FMU_STATE,
+        directional_derivative: M::PROVIDES_DIRECTIONAL_DERIVATIVE,
+    };
+    model_description_xml_caps(M::model_info(), options, caps)
+}
+
+/// What the XML declares beside the variables: the interfaces and the optional functions
+/// (from the model's [`FmuModel`] constants).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Capabilities {
+    /// A `<ModelExchange>` element beside `<CoSimulation>`.
+    pub model_exchange: bool,
+    /// `canGetAndSetFMUstate` and `canSerializeFMUstate`.
+    pub fmu_state: bool,
+    /// `providesDirectionalDerivative`.
+    pub directional_derivative: bool,
 }
 
 fn b(x: bool) -> &'static str {
@@ -78,6 +95,20 @@ pub fn model_description_xml_with(
     options: &XmlOptions,
     model_exchange: bool,
 ) -> Result<String, Vec<String>> {
+    let caps = Capabilities {
+        model_exchange,
+        fmu_state: true,
+        directional_derivative: true,
+    };
+    model_description_xml_caps(info, options, caps)
+}
+
+/// [`model_description_xml_with`] with every capability given.
+pub fn model_description_xml_caps(
+    info: &ModelInfo,
+    options: &XmlOptions,
+    caps: Capabilities,
+) -> Result<String, Vec<String>> {
     validate(info)?;
     let mut problems = Vec::new();
     for (vr, start) in &options.start_overrides {
@@ -104,7 +135,7 @@ pub fn model_description_xml_with(
     if !problems.is_empty() {
         return Err(problems);
     }
-    write_xml(info, options, model_exchange).map_err(|e| vec![format!("XML writer error: {e}")])
+    write_xml(info, options, caps).map_err(|e| vec![format!("XML writer error: {e}")])
 }
 
 fn index_of(info: &ModelInfo, vr: u32) -> usize {
@@ -125,7 +156,7 @@ fn sorted_indices(info: &ModelInfo, vrs: &[u32]) -> Vec<usize> {
 fn write_xml(
     info: &ModelInfo,
     options: &XmlOptions,
-    model_exchange: bool,
+    caps: Capabilities,
 ) -> std::io::Result<String> {
     let mut w = Writer::new_with_indent(Vec::new(), b' ', 2);
     w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))?;
@@ -167,16 +198,17 @@ fn write_xml(
     w.write_event(Event::Start(root))?;
 
     // Capabilities: what the shell implements, identical for every model.
-    if model_exchange {
+    let (state, dd) = (b(caps.fmu_state), b(caps.directional_derivative));
+    if caps.model_exchange {
         let mut me = BytesStart::new("ModelExchange");
         me.push_attribute(("modelIdentifier", info.model_identifier));
         me.push_attribute(("needsExecutionTool", b(false)));
         me.push_attribute(("completedIntegratorStepNotNeeded", b(true)));
         me.push_attribute(("canBeInstantiatedOnlyOncePerProcess", b(false)));
         me.push_attribute(("canNotUseMemoryManagementFunctions", b(true)));
-        me.push_attribute(("canGetAndSetFMUstate", b(true)));
-        me.push_attribute(("canSerializeFMUstate", b(true)));
-        me.push_attribute(("providesDirectionalDerivative", b(true)));
+        me.push_attribute(("canGetAndSetFMUstate", state));
+        me.push_attribute(("canSerializeFMUstate", state));
+        me.push_attribute(("providesDirectionalDerivative", dd));
         w.write_event(Event::Empty(me))?;
     }
     let mut cs = BytesStart::new("CoSimulation");
@@ -188,9 +220,9 @@ fn write_xml(
     cs.push_attribute(("canRunAsynchronuously", b(false)));
     cs.push_attribute(("canBeInstantiatedOnlyOncePerProcess", b(false)));
     cs.push_attribute(("canNotUseMemoryManagementFunctions", b(true)));
-    cs.push_attribute(("canGetAndSetFMUstate", b(true)));
-    cs.push_attribute(("canSerializeFMUstate", b(true)));
-    cs.push_attribute(("providesDirectionalDerivative", b(true)));
+    cs.push_attribute(("canGetAndSetFMUstate", state));
+    cs.push_attribute(("canSerializeFMUstate", state));
+    cs.push_attribute(("providesDirectionalDerivative", dd));
     w.write_event(Event::Empty(cs))?;
 
     if !info.units.is_empty() {

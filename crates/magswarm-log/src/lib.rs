@@ -2,7 +2,8 @@
 //!
 //! One format for everything that produces or consumes radii over time: the co-simulation
 //! harnesses, `magswarm predict`, `identify`, `diagnose`, the virtual lab and the hardware
-//! bridge. This crate depends only on `csv` (no clap, no plotters), so any of them can use it.
+//! bridge. This crate depends only on `csv` and `thiserror` (no clap, no plotters), so any of
+//! them can use it.
 //!
 //! ```text
 //! t_s,z_m_mm,f_hz,r1_mm,r2_mm[,session][,valid][,r1_ref_mm][,r2_ref_mm][,anything else]

@@ -97,48 +97,60 @@ pub fn parse_header<'a>(
     }
 }
 
+/// What is wrong with one cell (a [`LogProblem`]'s message, with its line and column).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum CellError {
+    #[error("expected 0 or 1, got {0:?}")]
+    NotBool(String),
+    #[error("must be finite, got {0}")]
+    NotFinite(f64),
+    #[error("not a number: {0:?}")]
+    NotNumber(String),
+    #[error("empty radius on a valid row (mark the row valid=0 if the measurement failed)")]
+    EmptyRadius,
+    #[error("negative radius {0}")]
+    NegativeRadius(f64),
+}
+
 /// The `valid` cell: empty counts as 1.
-fn parse_valid(cell: &str) -> Result<bool, String> {
+fn parse_valid(cell: &str) -> Result<bool, CellError> {
     match cell.to_ascii_lowercase().as_str() {
         "" | "1" | "true" | "1.0" => Ok(true),
         "0" | "false" | "0.0" => Ok(false),
-        other => Err(format!("expected 0 or 1, got {other:?}")),
+        other => Err(CellError::NotBool(other.to_string())),
     }
 }
 
 /// A required number (`t_s`, `z_m_mm`, `f_hz`): finite.
-fn parse_required(cell: &str) -> Result<f64, String> {
+fn parse_required(cell: &str) -> Result<f64, CellError> {
     match parse_num(cell) {
         Some(v) if v.is_finite() => Ok(v),
-        Some(v) => Err(format!("must be finite, got {v}")),
-        None => Err(format!("not a number: {cell:?}")),
+        Some(v) => Err(CellError::NotFinite(v)),
+        None => Err(CellError::NotNumber(cell.to_string())),
     }
 }
 
 /// A radius cell: finite and non-negative on a valid row; on a `valid` = 0 row it may be
 /// empty or NaN (the camera lost the swarm), but not negative or text.
-fn parse_radius(cell: &str, valid: bool) -> Result<Option<f64>, String> {
+fn parse_radius(cell: &str, valid: bool) -> Result<Option<f64>, CellError> {
     if cell.is_empty() {
         return if valid {
-            Err(
-                "empty radius on a valid row (mark the row valid=0 if the measurement failed)"
-                    .into(),
-            )
+            Err(CellError::EmptyRadius)
         } else {
             Ok(None)
         };
     }
     match parse_num(cell) {
         Some(v) if v.is_nan() && !valid => Ok(None),
-        Some(v) if !v.is_finite() => Err(format!("must be finite, got {v}")),
-        Some(v) if v < 0.0 => Err(format!("negative radius {v}")),
+        Some(v) if !v.is_finite() => Err(CellError::NotFinite(v)),
+        Some(v) if v < 0.0 => Err(CellError::NegativeRadius(v)),
         Some(v) => Ok(Some(v)),
-        None => Err(format!("not a number: {cell:?}")),
+        None => Err(CellError::NotNumber(cell.to_string())),
     }
 }
 
 /// An optional number (setpoints): empty, or finite.
-fn parse_optional(cell: &str) -> Result<Option<f64>, String> {
+fn parse_optional(cell: &str) -> Result<Option<f64>, CellError> {
     if cell.is_empty() {
         return Ok(None);
     }
@@ -164,16 +176,16 @@ pub fn parse_row<'a>(
         if *c == Column::Valid {
             match parse_valid(cell) {
                 Ok(v) => row.valid = v,
-                Err(message) => problems.push(LogProblem {
+                Err(e) => problems.push(LogProblem {
                     line,
                     column: Some("valid".into()),
-                    message,
+                    message: e.to_string(),
                 }),
             }
         }
     }
     for (c, cell) in layout.columns.iter().zip(cells) {
-        let parsed: Result<(), String> = match c {
+        let parsed: Result<(), CellError> = match c {
             Column::T => parse_required(cell).map(|v| row.t_s = v),
             Column::Z => parse_required(cell).map(|v| row.z_m_mm = v),
             Column::F => parse_required(cell).map(|v| row.f_hz = v),
@@ -191,11 +203,11 @@ pub fn parse_row<'a>(
                 Ok(())
             }
         };
-        if let Err(message) = parsed {
+        if let Err(e) = parsed {
             problems.push(LogProblem {
                 line,
                 column: Some(c.name(&layout.extra_columns).to_string()),
-                message,
+                message: e.to_string(),
             });
         }
     }

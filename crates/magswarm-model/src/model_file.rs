@@ -110,6 +110,15 @@ impl Model {
         Model::from_json_str(&text, &name)
     }
 
+    /// The model a command works with: the file at `path` (loaded and validated), else the
+    /// built-in paper model. Every `--model` option is optional with this default.
+    pub fn load_or_paper(path: Option<&Path>) -> Result<Model, ModelError> {
+        match path {
+            Some(p) => Model::load(p),
+            None => Ok(Model::paper()),
+        }
+    }
+
     /// Serialise to pretty JSON (validated first, so a saved file always loads).
     pub fn to_json(&self) -> Result<String, ModelError> {
         self.validate()?;
@@ -163,8 +172,8 @@ impl Model {
             );
         }
         // Every numeric parameter: its physical range from the registry.
-        if let Err((path, message)) = crate::registry::check_all(self) {
-            c.fail(path, message);
+        if let Err((path, err)) = crate::registry::check_all(self) {
+            c.fail(path, err.to_string());
         }
         for (i, t) in self.effects.learned.iter().enumerate() {
             if let Err(e) = t.validate() {
@@ -280,6 +289,20 @@ mod tests {
         v["schema"] = "magswarm-model/9".into();
         let e = Model::from_json_str(&v.to_string(), "m.json").unwrap_err();
         assert_eq!(e.path, "schema");
+    }
+
+    #[test]
+    fn load_or_paper_gives_the_file_or_the_paper_model() {
+        assert_eq!(Model::load_or_paper(None).unwrap(), Model::paper());
+        let dir = std::env::temp_dir().join(format!("magswarm-lop-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut m = Model::paper();
+        m.steady.C_1 = 8.25;
+        let p = dir.join("m.json");
+        m.save(&p).unwrap();
+        assert_eq!(Model::load_or_paper(Some(&p)).unwrap(), m);
+        let e = Model::load_or_paper(Some(&dir.join("missing.json"))).unwrap_err();
+        assert!(e.to_string().contains("missing.json"), "{e}");
     }
 
     #[test]

@@ -99,16 +99,36 @@ pub struct Param {
     pub set: fn(&mut Model, f64),
 }
 
+/// A value outside its parameter's physical range (the caller names the parameter).
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+pub enum ValueError {
+    /// NaN or infinite.
+    #[error("must be finite (got {0})")]
+    NotFinite(f64),
+    /// Zero or negative where only positive values mean something.
+    #[error("must be > 0 (got {0})")]
+    NotPositive(f64),
+    /// Outside `[lo, hi]`.
+    #[error("out of range: {v} not in [{lo}, {hi}]")]
+    OutOfRange {
+        /// The value.
+        v: f64,
+        /// Lower bound.
+        lo: f64,
+        /// Upper bound.
+        hi: f64,
+    },
+}
+
 impl Param {
-    /// Check the value in `m` against the physical range: `Err(message)` names what is wrong
-    /// (the caller adds the path).
-    pub fn check(&self, m: &Model) -> Result<(), String> {
+    /// Check the value in `m` against the physical range (the caller adds the path).
+    pub fn check(&self, m: &Model) -> Result<(), ValueError> {
         let v = (self.get)(m);
         if !v.is_finite() {
-            return Err(format!("must be finite (got {v})"));
+            return Err(ValueError::NotFinite(v));
         }
         match self.physical {
-            Physical::Positive if v <= 0.0 => Err(format!("must be > 0 (got {v})")),
+            Physical::Positive if v <= 0.0 => Err(ValueError::NotPositive(v)),
             Physical::Positive => Ok(()),
             Physical::Range(lo, hi) => in_range(v, lo, hi),
             Physical::Computed(f) => {
@@ -119,9 +139,9 @@ impl Param {
     }
 }
 
-fn in_range(v: f64, lo: f64, hi: f64) -> Result<(), String> {
+fn in_range(v: f64, lo: f64, hi: f64) -> Result<(), ValueError> {
     if v < lo || v > hi {
-        Err(format!("out of range: {v} not in [{lo}, {hi}]"))
+        Err(ValueError::OutOfRange { v, lo, hi })
     } else {
         Ok(())
     }
@@ -271,8 +291,8 @@ pub fn group(g: Group) -> impl Iterator<Item = &'static Param> {
     PARAMS.iter().filter(move |p| p.group == g)
 }
 
-/// Check every row against its physical range; the first violation as (path, message).
-pub fn check_all(m: &Model) -> Result<(), (&'static str, String)> {
+/// Check every row against its physical range; the first violation with its path.
+pub fn check_all(m: &Model) -> Result<(), (&'static str, ValueError)> {
     for p in PARAMS {
         p.check(m).map_err(|e| (p.path, e))?;
     }
@@ -333,9 +353,9 @@ mod tests {
         for p in PARAMS {
             let mut m = Model::paper();
             (p.set)(&mut m, f64::NAN);
-            let (path, msg) = check_all(&m).unwrap_err();
+            let (path, err) = check_all(&m).unwrap_err();
             assert_eq!(path, p.path);
-            assert!(msg.contains("finite"), "{msg}");
+            assert!(err.to_string().contains("finite"), "{err}");
         }
     }
 }

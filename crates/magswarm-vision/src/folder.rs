@@ -25,10 +25,38 @@ pub enum FolderError {
         line: u64,
         msg: String,
     },
-    #[error("{path}: cannot decode PNG: {msg}")]
-    Decode { path: PathBuf, msg: String },
-    #[error("{path}: cannot encode PNG: {msg}")]
-    Encode { path: PathBuf, msg: String },
+    #[error("{path}: cannot decode PNG: {source}")]
+    Decode {
+        path: PathBuf,
+        #[source]
+        source: PngError,
+    },
+    #[error("{path}: cannot encode PNG: {source}")]
+    Encode {
+        path: PathBuf,
+        #[source]
+        source: PngError,
+    },
+}
+
+/// A PNG frame that cannot be decoded or encoded.
+#[derive(Debug, thiserror::Error)]
+pub enum PngError {
+    /// The decoder's error (not a PNG, truncated, bad checksum).
+    #[error(transparent)]
+    Decoding(#[from] png::DecodingError),
+    /// The encoder's error.
+    #[error(transparent)]
+    Encoding(#[from] png::EncodingError),
+    /// Samples that are not 8-bit after expansion.
+    #[error("{0:?}-bit samples after expansion")]
+    BitDepth(png::BitDepth),
+    /// A palette image the decoder did not expand.
+    #[error("palette PNG was not expanded")]
+    Palette,
+    /// Header and data disagree.
+    #[error("PNG size does not match its data")]
+    Size,
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FolderError + '_ {
@@ -128,26 +156,26 @@ pub fn read_index(dir: &Path) -> Result<Vec<IndexEntry>, FolderError> {
 /// grayscale; other PNGs a recording tool may have written are converted rather than refused:
 /// 1/2/4-bit gray is expanded, 16-bit keeps its high byte, an alpha channel is dropped, palette and
 /// colour images become their luma (ITU-R BT.601 weights).
-pub fn decode_png(bytes: &[u8]) -> Result<GrayImage, String> {
+pub fn decode_png(bytes: &[u8]) -> Result<GrayImage, PngError> {
     let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
     dec.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
-    let mut reader = dec.read_info().map_err(|e| e.to_string())?;
+    let mut reader = dec.read_info()?;
     let mut buf = vec![0; reader.output_buffer_size()];
-    let info = reader.next_frame(&mut buf).map_err(|e| e.to_string())?;
+    let info = reader.next_frame(&mut buf)?;
     let (w, h) = (info.width as usize, info.height as usize);
     if info.bit_depth != png::BitDepth::Eight {
-        return Err(format!("{:?}-bit samples after expansion", info.bit_depth));
+        return Err(PngError::BitDepth(info.bit_depth));
     }
     let channels = match info.color_type {
         png::ColorType::Grayscale => 1,
         png::ColorType::GrayscaleAlpha => 2,
         png::ColorType::Rgb => 3,
         png::ColorType::Rgba => 4,
-        png::ColorType::Indexed => return Err("palette PNG was not expanded".into()),
+        png::ColorType::Indexed => return Err(PngError::Palette),
     };
     let stride = info.line_size;
     if stride < w * channels || buf.len() < stride * h.saturating_sub(1) + w * channels {
-        return Err("PNG size does not match its data".into());
+        return Err(PngError::Size);
     }
     let mut data = Vec::with_capacity(w * h);
     for y in 0..h {
@@ -160,37 +188,37 @@ pub fn decode_png(bytes: &[u8]) -> Result<GrayImage, String> {
             })),
         }
     }
-    GrayImage::from_vec(w, h, data).ok_or_else(|| "PNG size does not match its data".into())
+    GrayImage::from_vec(w, h, data).ok_or(PngError::Size)
 }
 
 /// Reads and decodes one PNG frame.
 pub fn read_png(path: &Path) -> Result<GrayImage, FolderError> {
     let bytes = std::fs::read(path).map_err(io_err(path))?;
-    decode_png(&bytes).map_err(|msg| FolderError::Decode {
+    decode_png(&bytes).map_err(|source| FolderError::Decode {
         path: path.to_path_buf(),
-        msg,
+        source,
     })
 }
 
 /// Encodes an 8-bit grayscale PNG (fast compression: recording must keep up with a camera).
-pub fn encode_png(img: &GrayImage) -> Result<Vec<u8>, String> {
+pub fn encode_png(img: &GrayImage) -> Result<Vec<u8>, PngError> {
     let mut out = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut out, img.width() as u32, img.height() as u32);
         enc.set_color(png::ColorType::Grayscale);
         enc.set_depth(png::BitDepth::Eight);
         enc.set_compression(png::Compression::Fast);
-        let mut w = enc.write_header().map_err(|e| e.to_string())?;
-        w.write_image_data(img.data()).map_err(|e| e.to_string())?;
+        let mut w = enc.write_header()?;
+        w.write_image_data(img.data())?;
     }
     Ok(out)
 }
 
 /// Writes one PNG frame.
 pub fn write_png(path: &Path, img: &GrayImage) -> Result<(), FolderError> {
-    let bytes = encode_png(img).map_err(|msg| FolderError::Encode {
+    let bytes = encode_png(img).map_err(|source| FolderError::Encode {
         path: path.to_path_buf(),
-        msg,
+        source,
     })?;
     std::fs::write(path, bytes).map_err(io_err(path))
 }

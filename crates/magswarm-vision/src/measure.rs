@@ -119,7 +119,7 @@ pub fn measure_folder(
         .collect();
     for (r, e) in rows.iter().zip(&entries) {
         if let Some(why) = &r.reason {
-            eprintln!(
+            log::warn!(
                 "{} (index.csv line {}, t_s = {}): valid=0: {why}",
                 dir.join(&e.file).display(),
                 e.line,
@@ -149,7 +149,7 @@ fn measure_entry(
 fn frame_error_reason(e: &FolderError) -> String {
     match e {
         FolderError::Io { source, .. } => format!("cannot read the frame: {source}"),
-        FolderError::Decode { msg, .. } => format!("cannot decode the frame: {msg}"),
+        FolderError::Decode { source, .. } => format!("cannot decode the frame: {source}"),
         other => other.to_string(),
     }
 }

@@ -5,7 +5,7 @@
 
 use super::gap::{self, Kind, Region};
 use super::{candidates, Diagnosis, Rmse};
-use crate::plot::{self, Heatmap, Labels, Panel, Series};
+use crate::plot::{self, Panel, Series};
 use anyhow::{Context, Result};
 use magswarm_model::effects::EffectKind;
 use serde_json::{json, Value};

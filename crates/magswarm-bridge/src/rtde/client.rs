@@ -270,7 +270,7 @@ impl RtdeClient {
 
     /// Send one input data package.
     pub fn send_inputs(&mut self, recipe: &Recipe, values: &[Value]) -> Result<(), RtdeError> {
-        let buf = encode_inputs(recipe, values).map_err(|w| self.proto(w))?;
+        let buf = encode_inputs(recipe, values).map_err(|w| self.proto(w.to_string()))?;
         self.stream
             .write_all(&buf)
             .map_err(|e| self.io("sending inputs", e))
@@ -279,7 +279,7 @@ impl RtdeClient {
     /// Read the next output data package of `recipe`.
     pub fn receive(&mut self, recipe: &Recipe) -> Result<Vec<Value>, RtdeError> {
         let p = self.expect(pkt::DATA_PACKAGE)?;
-        decode_outputs(recipe, &p).map_err(|w| self.proto(w))
+        decode_outputs(recipe, &p).map_err(|w| self.proto(w.to_string()))
     }
 
     /// Split into the stream (for a reader thread and a writer).
@@ -288,45 +288,91 @@ impl RtdeClient {
     }
 }
 
+/// A data package that does not fit its recipe.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PackageError {
+    /// As many values as the recipe has variables are needed.
+    #[error("{given} values for an input recipe of {expected}")]
+    Count {
+        /// Values given.
+        given: usize,
+        /// Variables in the recipe.
+        expected: usize,
+    },
+    /// A value of the wrong type.
+    #[error("input `{name}` is {expected}, got {got}")]
+    Type {
+        /// The variable.
+        name: String,
+        /// Its type.
+        expected: &'static str,
+        /// The value given.
+        got: String,
+    },
+    /// A package of another recipe.
+    #[error("data package for recipe {got}, expected {expected}")]
+    Recipe {
+        /// Its recipe id.
+        got: u8,
+        /// The recipe's.
+        expected: u8,
+    },
+    /// No recipe id.
+    #[error("empty data package")]
+    Empty,
+    /// The payload's length does not match the recipe's types.
+    #[error("data package of {len} bytes does not match the recipe {names:?}")]
+    Size {
+        /// Payload length.
+        len: usize,
+        /// The recipe's variables.
+        names: Vec<String>,
+    },
+    /// Over the protocol's 16-bit package size.
+    #[error("package of {0} bytes is too large for RTDE")]
+    TooLarge(usize),
+}
+
 /// Encode a whole input data package (header included).
-pub fn encode_inputs(recipe: &Recipe, values: &[Value]) -> Result<Vec<u8>, String> {
+pub fn encode_inputs(recipe: &Recipe, values: &[Value]) -> Result<Vec<u8>, PackageError> {
     if values.len() != recipe.types.len() {
-        return Err(format!(
-            "{} values for an input recipe of {}",
-            values.len(),
-            recipe.types.len()
-        ));
+        return Err(PackageError::Count {
+            given: values.len(),
+            expected: recipe.types.len(),
+        });
     }
     let mut payload = vec![recipe.id];
     for (v, (t, n)) in values.iter().zip(recipe.types.iter().zip(&recipe.names)) {
         if v.var_type() != *t {
-            return Err(format!("input `{n}` is {}, got {:?}", t.name(), v));
+            return Err(PackageError::Type {
+                name: n.clone(),
+                expected: t.name(),
+                got: format!("{v:?}"),
+            });
         }
         v.encode(&mut payload);
     }
     let mut buf = Vec::with_capacity(payload.len() + 3);
-    proto::write_package(&mut buf, pkt::DATA_PACKAGE, &payload).map_err(|e| e.to_string())?;
+    proto::write_package(&mut buf, pkt::DATA_PACKAGE, &payload)
+        .map_err(|_| PackageError::TooLarge(payload.len() + 3))?;
     Ok(buf)
 }
 
 /// Decode an output data package's payload for `recipe`.
-pub fn decode_outputs(recipe: &Recipe, p: &[u8]) -> Result<Vec<Value>, String> {
+pub fn decode_outputs(recipe: &Recipe, p: &[u8]) -> Result<Vec<Value>, PackageError> {
     match p.first() {
         Some(&id) if id == recipe.id => {}
         Some(&id) => {
-            return Err(format!(
-                "data package for recipe {id}, expected {}",
-                recipe.id
-            ))
+            return Err(PackageError::Recipe {
+                got: id,
+                expected: recipe.id,
+            })
         }
-        None => return Err("empty data package".into()),
+        None => return Err(PackageError::Empty),
     }
-    proto::decode_values(&recipe.types, &p[1..]).ok_or_else(|| {
-        format!(
-            "data package of {} bytes does not match the recipe {:?}",
-            p.len(),
-            recipe.names
-        )
+    proto::decode_values(&recipe.types, &p[1..]).ok_or_else(|| PackageError::Size {
+        len: p.len(),
+        names: recipe.names.clone(),
     })
 }
 

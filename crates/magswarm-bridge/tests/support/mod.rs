@@ -2,7 +2,10 @@
 //! matching config.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+pub mod tmcl_peer;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use magswarm_bridge::config::RigConfig;
@@ -18,6 +21,14 @@ pub struct Rig {
 
 /// The config text; `{RTDE}`, `{DASH}`, `{SCRIPT}`, `{TTY}` are filled in once the emulators
 /// listen. `extra` is appended (more sections, e.g. `[emulator]` cues).
+///
+/// The link timeouts are longer than the defaults (RTDE 0.5 s instead of 0.1 s, the URScript
+/// watchdog 4 Hz instead of 10 Hz, the stepper watchdog 0.5 s instead of 0.25 s, a TMCL reply
+/// 0.5 s instead of 0.1 s): on a machine
+/// where several builds share two cores the emulator's 500 Hz stream, or the bridge's loop,
+/// can stall for 100 ms, which is not the fault under test. Faults are injected as events
+/// (a closed link, a protective stop, a killed process), whose detection does not wait for
+/// these timeouts.
 pub fn config_text(robot_extra: &str, camera_extra: &str, extra: &str) -> String {
     format!(
         r#"
@@ -27,6 +38,8 @@ rtde_port = {{RTDE}}
 script_port = {{SCRIPT}}
 dashboard_port = {{DASH}}
 z_tcp_at_zero_m = 0.400
+timeout_s = 0.5
+watchdog_hz = 4.0
 {robot_extra}
 
 [stepper]
@@ -36,6 +49,8 @@ baud = 9600
 module_address = 1
 motor = 0
 velocity_per_hz = 51200.0
+watchdog_timeout_s = 0.5
+reply_timeout_s = 0.5
 
 [camera]
 kind = "emulated"
@@ -128,6 +143,49 @@ impl Rig {
 
     pub fn log_path(&self) -> PathBuf {
         self.dir.path().join("log.csv")
+    }
+
+    /// A copy of the config whose stepper is the serial device `device` (another module
+    /// than the emulator's, e.g. an independent peer).
+    pub fn config_with_stepper(&self, device: &str) -> PathBuf {
+        let text = std::fs::read_to_string(&self.cfg_path).unwrap();
+        let p = self.dir.path().join("rig-peer.toml");
+        std::fs::write(&p, text.replace(&self.emu.stepper.path, device)).unwrap();
+        p
+    }
+
+    /// Start `magswarm-bridge run` with the config `cfg` on a two-row plan (10 mm / 4 Hz,
+    /// then 12 mm / 5 Hz from 1 s), stdout and stderr piped.
+    pub fn spawn_run(&self, cfg: &Path, args: &[&str]) -> Child {
+        let plan = self.dir.path().join("plan.csv");
+        std::fs::write(&plan, "t_s,z_m_mm,f_hz\n0,10,4\n1,12,5\n").unwrap();
+        Command::new(env!("CARGO_BIN_EXE_magswarm-bridge"))
+            .args(["run", "--config"])
+            .arg(cfg)
+            .arg("--plan")
+            .arg(&plan)
+            .arg("--log")
+            .arg(self.log_path())
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap()
+    }
+
+    /// Wait until the log has `n` rows (the run is under way).
+    pub fn wait_rows(&self, n: usize, limit: Duration) {
+        let t0 = Instant::now();
+        loop {
+            let rows = std::fs::read_to_string(self.log_path())
+                .map(|t| t.lines().count().saturating_sub(1))
+                .unwrap_or(0);
+            if rows >= n {
+                return;
+            }
+            assert!(t0.elapsed() < limit, "only {rows} rows after {limit:?}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
     }
 }
 
