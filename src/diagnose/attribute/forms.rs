@@ -14,6 +14,10 @@ pub(super) fn choose_forms(
 ) -> (Augmented, Design, Vec<(EffectKind, Family)>) {
     let ds = lin.ds;
     let mut design = lin.jac.clone();
+    // The same, in the directions the model file can carry (no transient directions): where
+    // the library form and the learned shape are compared, both without them, as the nonlinear
+    // refits of the library form are.
+    let mut model_d = lin.model_jac();
     let mut learned: Vec<(EffectKind, Family)> = Vec::new();
     let mut parametric: Vec<EffectKind> = Vec::new();
     // The last library fit (free parameters and library forms fitted together).
@@ -30,6 +34,22 @@ pub(super) fn choose_forms(
             };
         }
         let is_shape = vs.iter().all(|v| matches!(v, Variant::Shape(_)));
+        let mut shape_model_d = Some(model_d.clone());
+        for v in vs {
+            shape_model_d = match (shape_model_d, columns_of(v, &lin.rc)) {
+                (Some(d), Some(more)) => Some(d.append(&more)),
+                _ => None,
+            };
+        }
+        let g_learned_model = match (
+            Solver::new(&model_d, &lin.fold_of_stacked, lin.k),
+            shape_model_d
+                .as_ref()
+                .and_then(|d| Solver::new(d, &lin.fold_of_stacked, lin.k)),
+        ) {
+            (Some(b), Some(s)) => gain(&b, &s, &lin.y, [1.0, 1.0]),
+            _ => f64::NEG_INFINITY,
+        };
         let g_learned = match (&before, &shape_design) {
             (Some(b), Some(d)) => Solver::new(d, &lin.fold_of_stacked, lin.k)
                 .map(|s| gain(b, &s, &lin.y, [1.0, 1.0]))
@@ -86,8 +106,8 @@ pub(super) fn choose_forms(
         // location and shape included, from the full fit), against the current design's
         // withheld residual. (A column from the full fit with a free amplitude would know
         // the withheld visits through the fitted location.)
-        let cv_sse = |m: &Augmented| {
-            let cv = library_cv(lin, m);
+        let cv_sse = |m: &Augmented, starts: &[Vec<f64>]| {
+            let cv = library_cv_from(lin, m, starts);
             linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
                 let (i, a) = (s / 2, s % 2);
                 let v = lin.rc.w[a] * (ds.rows[i].r[a] - cv[i][a]);
@@ -100,12 +120,13 @@ pub(super) fn choose_forms(
         };
         let g_param = match &before {
             Some(_) if col.norm() > 1e-9 => {
-                let (e0, e1) = (cv_sse(&without), cv_sse(&fr.aug));
+                let (e0, e1) = (cv_sse(&without, &[]), cv_sse(&start, &starts));
                 0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
             }
             _ => f64::NEG_INFINITY,
         };
-        let use_learned = is_shape && g_learned.is_finite() && g_param < 0.9 * g_learned;
+        let use_learned =
+            is_shape && g_learned_model.is_finite() && g_param < 0.9 * g_learned_model;
         let learned_pred = shape_design
             .as_ref()
             .filter(|_| is_shape)
@@ -136,16 +157,18 @@ pub(super) fn choose_forms(
                 }
             }
             design = shape_design.expect("shape design");
+            model_d = shape_model_d.expect("shape design");
             if let Some(e) = e {
-                e.form_gains = Some((g_param, g_learned));
+                e.form_gains = Some((g_param, g_learned_model));
             }
         } else {
             parametric.push(*name);
             // The fit refitted the earlier library forms and the free parameters with it.
             last_lib = Some(fr.aug.clone());
             design = param_design;
+            model_d = model_d.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
             if let Some(e) = e {
-                e.form_gains = Some((g_param, g_learned));
+                e.form_gains = Some((g_param, g_learned_model));
             }
         }
         let _ = st;
@@ -177,6 +200,14 @@ pub(super) fn choose_forms(
 /// Withheld predictions of a fitted augmented model: each fold refitted on the other folds'
 /// rows by the nonlinear fitter, from the full fit.
 pub(super) fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
+    library_cv_from(lin, full, &[])
+}
+
+/// Withheld predictions of a model refitted per fold by the nonlinear fitter from `start`,
+/// with `starts` for its last effect's multi-start search (empty: a local refit from `start`).
+/// With starts, every fold finds the effect's location on its own training rows: a refit
+/// from the full fit would start where all rows put it, the withheld ones included.
+fn library_cv_from(lin: &Linear, start: &Augmented, starts: &[Vec<f64>]) -> Vec<[f64; 2]> {
     let ds = lin.ds;
     let mut cv = vec![[0.0; 2]; ds.rows.len()];
     let fold_of_row: Vec<usize> = (0..ds.rows.len())
@@ -189,7 +220,15 @@ pub(super) fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
         if train.len() == ds.rows.len() {
             continue;
         }
-        let fr = fitter::fit(full, lin.free, ds, lin.ctx, &train, lin.noise.row(), &[]);
+        let fr = fitter::fit(
+            start,
+            lin.free,
+            ds,
+            lin.ctx,
+            &train,
+            lin.noise.row(),
+            starts,
+        );
         let p = candidates::predict(&fr.aug, ds);
         for i in 0..ds.rows.len() {
             if fold_of_row[i] == f {
