@@ -85,44 +85,22 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
         (
             "inputs",
             "f_shape",
-            Family {
-                axis: Axis::F { nu: 0.0 },
-                mode: Mode::Add,
-                knots: shapes::knots_of(&fs, 10),
-                pin_last: false,
-                amp: 0.0,
-                axes: [true; 2],
-                monotone: None,
-                smooth: 0.3,
-            },
+            Family::new(
+                Axis::F { nu: 0.0 },
+                Mode::Add,
+                shapes::knots_of(&fs, 10),
+                0.3,
+            ),
         ),
         (
             "inputs",
             "z_shape",
-            Family {
-                axis: Axis::Z,
-                mode: Mode::Add,
-                knots: shapes::knots_of(&zs, 8),
-                pin_last: false,
-                amp: 0.0,
-                axes: [true; 2],
-                monotone: None,
-                smooth: 0.3,
-            },
+            Family::new(Axis::Z, Mode::Add, shapes::knots_of(&zs, 8), 0.3),
         ),
         (
             "drift",
             "t_shape",
-            Family {
-                axis: Axis::T,
-                mode: Mode::Add,
-                knots: shapes::knots_of(&rc.t, 8),
-                pin_last: false,
-                amp: 0.0,
-                axes: [true; 2],
-                monotone: None,
-                smooth: 0.3,
-            },
+            Family::new(Axis::T, Mode::Add, shapes::knots_of(&rc.t, 8), 0.3),
         ),
     ];
     if let Some(f) = since_family(rc, 0.3) {
@@ -146,14 +124,8 @@ pub fn since_family(rc: &RowCtx, smooth: f64) -> Option<Family> {
     }
     knots.push(3.0 * last);
     Some(Family {
-        axis: Axis::Since,
-        mode: Mode::StepFraction,
-        knots,
         pin_last: true,
-        amp: 0.0,
-        axes: [true; 2],
-        monotone: None,
-        smooth,
+        ..Family::new(Axis::Since, Mode::StepFraction, knots, smooth)
     })
 }
 

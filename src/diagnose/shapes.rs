@@ -116,6 +116,22 @@ pub struct Family {
     pub monotone: Option<linear::Monotone>,
 }
 
+impl Family {
+    /// A family acting on both radii, unscaled by the field, heights free at every knot.
+    pub fn new(axis: Axis, mode: Mode, knots: Vec<f64>, smooth: f64) -> Family {
+        Family {
+            axis,
+            mode,
+            knots,
+            pin_last: false,
+            smooth,
+            amp: 0.0,
+            axes: [true; 2],
+            monotone: None,
+        }
+    }
+}
+
 /// A fitted shape.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Shape {

@@ -101,6 +101,14 @@ def predicted(effects_model, schedule_log, tmp_path_factory):
     return np.array([[float(d[k]) for k in ("r1_mm", "r2_mm", "r1_ss_mm", "r2_ss_mm")] for d in data])
 
 
+def predict_radii(exe, model, inputs, out):
+    """`magswarm predict` of a model on an inputs CSV: (rows, 2) radii in mm."""
+    subprocess.run([str(exe), "predict", "--model", str(model), "--log", str(inputs), "--out",
+                    str(out)], check=True, capture_output=True)
+    with out.open() as fh:
+        return np.array([[float(r["r1_mm"]), float(r["r2_mm"])] for r in csv.DictReader(fh)])
+
+
 def run_fmu(md, unzipdir, vr, rows, model_file=None, fmu_log=None):
     """Replay the rows as predict does: inputs of row k held from row k-1 to row k. Radii in mm."""
     from fmpy.fmi2 import FMU2Slave
@@ -191,13 +199,8 @@ def test_diagnose_augmented_model_runs_in_the_fmu(model_description, unzipdir, v
         w = csv.writer(fh)
         w.writerow(["t_s", "z_m_mm", "f_hz"])
         w.writerows(rows)
-    preds = {}
-    for name in ("augmented", "baseline"):
-        p = d / f"pred_{name}.csv"
-        subprocess.run([str(exe), "predict", "--model", str(out / f"{name}.json"), "--log",
-                        str(inputs), "--out", str(p)], check=True, capture_output=True)
-        with p.open() as fh:
-            preds[name] = np.array([[float(r["r1_mm"]), float(r["r2_mm"])] for r in csv.DictReader(fh)])
+    preds = {name: predict_radii(exe, out / f"{name}.json", inputs, d / f"pred_{name}.csv")
+             for name in ("augmented", "baseline")}
     try:
         got = run_fmu(model_description, unzipdir, vr, rows, model_file=out / "augmented.json",
                       fmu_log=fmu_log)[:, :2]
@@ -254,13 +257,8 @@ def test_diagnosed_learned_shape_runs_in_the_fmu(model_description, unzipdir, vr
     augmented = json.loads((out / "augmented.json").read_text())
     learned = augmented["effects"].get("learned", [])
     assert any(t["effect"] == "phase_lag" and t["axis"] == "f_hz" for t in learned), augmented["effects"]
-    preds = {}
-    for name in ("augmented", "baseline"):
-        p = d / f"pred_{name}.csv"
-        subprocess.run([str(exe), "predict", "--model", str(out / f"{name}.json"), "--log",
-                        str(inputs), "--out", str(p)], check=True, capture_output=True)
-        with p.open() as fh:
-            preds[name] = np.array([[float(r["r1_mm"]), float(r["r2_mm"])] for r in csv.DictReader(fh)])
+    preds = {name: predict_radii(exe, out / f"{name}.json", inputs, d / f"pred_{name}.csv")
+             for name in ("augmented", "baseline")}
     got = run_fmu(model_description, unzipdir, vr, rows, model_file=out / "augmented.json",
                   fmu_log=fmu_log)[:, :2]
     err = np.abs(got - preds["augmented"]).max()

@@ -37,6 +37,11 @@ impl Builder {
     fn one(&mut self, protocol: Protocol, shape: Shape, strength: f64) {
         self.push(protocol, vec![Truth { shape, strength }]);
     }
+
+    fn pair(&mut self, protocol: Protocol, shapes: (Shape, Shape), strength: f64) {
+        let t = |shape| Truth { shape, strength };
+        self.push(protocol, vec![t(shapes.0), t(shapes.1)]);
+    }
 }
 
 /// The tuning set from a seed (161 scenarios): every effect in three foreign shapes at
@@ -150,21 +155,9 @@ pub fn scenarios(seed: u64) -> Vec<Scenario> {
         (Shape::DriveRollOff { f0: 6.0 }, Shape::SqrtLoss),
         (Shape::SlowMode { tau: 8.0 }, Shape::BandR2 { f0: 4.5 }),
     ];
-    for (i, &(s1, s2)) in pairs.iter().enumerate() {
+    for (i, &pair) in pairs.iter().enumerate() {
         for strength in [3.0, 5.0] {
-            b.push(
-                PROTOCOLS[(i + 1) % 2],
-                vec![
-                    Truth {
-                        shape: s1,
-                        strength,
-                    },
-                    Truth {
-                        shape: s2,
-                        strength,
-                    },
-                ],
-            );
+            b.pair(PROTOCOLS[(i + 1) % 2], pair, strength);
         }
     }
     camera(&mut b);
@@ -254,21 +247,9 @@ pub fn heldout(seed: u64) -> Vec<Scenario> {
         ),
         (Shape::AcceleratingGrowth, Shape::OnsetWithF { z0: 13.0 }),
     ];
-    for (i, &(s1, s2)) in pairs.iter().enumerate() {
+    for (i, &pair) in pairs.iter().enumerate() {
         for strength in [3.0, 4.0] {
-            b.push(
-                PROTOCOLS[(i + strength as usize) % 3],
-                vec![
-                    Truth {
-                        shape: s1,
-                        strength,
-                    },
-                    Truth {
-                        shape: s2,
-                        strength,
-                    },
-                ],
-            );
+            b.pair(PROTOCOLS[(i + strength as usize) % 3], pair, strength);
         }
     }
     camera(&mut b);

@@ -120,7 +120,19 @@ pub(super) fn choose_forms(
         };
         let g_param = match &before {
             Some(_) if col.norm() > 1e-9 => {
-                let (e0, e1) = (cv_sse(&without, &[]), cv_sse(&start, &starts));
+                // A form with a location (a step-out frequency, an onset distance) finds it on
+                // each fold's own rows; the others (time scales, rates: global, and costly
+                // to search per fold for a transient) refit locally from the full fit.
+                let located = name
+                    .fit_params(lin.ctx)
+                    .iter()
+                    .any(|p| p.location.is_some());
+                let e1 = if located {
+                    cv_sse(&start, &starts)
+                } else {
+                    cv_sse(&fr.aug, &[])
+                };
+                let e0 = cv_sse(&without, &[]);
                 0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
             }
             _ => f64::NEG_INFINITY,

@@ -62,16 +62,8 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
         let xs = rc.xs(Axis::F { nu });
         for &mode in modes {
             for s in [0.1, 1.0] {
-                v.push(Variant::Shape(Family {
-                    axis: Axis::F { nu },
-                    mode,
-                    knots: shapes::knots_of(&xs, fs.len().clamp(2, 10)),
-                    pin_last: false,
-                    amp: 0.0,
-                    axes: [true; 2],
-                    monotone: None,
-                    smooth: s,
-                }));
+                let knots = shapes::knots_of(&xs, fs.len().clamp(2, 10));
+                v.push(Variant::Shape(Family::new(Axis::F { nu }, mode, knots, s)));
             }
         }
     }
@@ -79,16 +71,12 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
     let mut v = Vec::new();
     for mode in [Mode::Add, Mode::Relative] {
         for s in smooths {
-            v.push(Variant::Shape(Family {
-                axis: Axis::Z,
+            v.push(Variant::Shape(Family::new(
+                Axis::Z,
                 mode,
-                knots: shapes::knots_of(&zs, 8),
-                pin_last: false,
-                amp: 0.0,
-                axes: [true; 2],
-                monotone: None,
-                smooth: s,
-            }));
+                shapes::knots_of(&zs, 8),
+                s,
+            )));
         }
     }
     out.push((Cand::Effect(EffectKind::CohesionLoss), v));
@@ -112,14 +100,8 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
             .iter()
             .map(|&s| {
                 Variant::Shape(Family {
-                    axis: Axis::T,
-                    mode: Mode::Relative,
-                    knots: shapes::knots_of(&rc.t, 8),
-                    pin_last: false,
-                    amp: 0.0,
-                    axes: [true; 2],
                     monotone: Some(Monotone::Either),
-                    smooth: s,
+                    ..Family::new(Axis::T, Mode::Relative, shapes::knots_of(&rc.t, 8), s)
                 })
             })
             .collect(),
@@ -130,16 +112,12 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
     // correction its library form makes at a few distances (amplitude free), each a column.
     let mut cv = Vec::new();
     for s in [0.1, 1.0] {
-        cv.push(Variant::Shape(Family {
-            axis: Axis::Z,
-            mode: Mode::Aspect,
-            knots: shapes::knots_of(&zs, 8),
-            pin_last: false,
-            amp: 0.0,
-            axes: [true; 2],
-            monotone: None,
-            smooth: s,
-        }));
+        cv.push(Variant::Shape(Family::new(
+            Axis::Z,
+            Mode::Aspect,
+            shapes::knots_of(&zs, 8),
+            s,
+        )));
     }
     for o in [3.0, 8.0, 16.0] {
         let mut a = lin.base.clone();
