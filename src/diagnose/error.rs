@@ -99,4 +99,10 @@ pub enum DiagnoseError {
         /// The withheld log.
         source_name: String,
     },
+    /// A figure or file of the report could not be written.
+    #[error(transparent)]
+    Report(#[from] crate::report::ReportError),
+    /// A model file of the report could not be written.
+    #[error(transparent)]
+    SaveModel(#[from] magswarm_model::ModelError),
 }

@@ -4,9 +4,10 @@
 //! figures draw. `report.md` is written by `markdown.rs`, its figures by `figures.rs`.
 
 use super::gap::{self, Kind, Region};
+use super::DiagnoseError;
 use super::{candidates, Diagnosis, Rmse};
 use crate::plot::{self, Panel, Series};
-use anyhow::{Context, Result};
+use crate::report::{ReportError, Result};
 use magswarm_model::effects::EffectKind;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
@@ -310,23 +311,18 @@ fn describe_region(r: &Region) -> String {
 }
 
 /// Write every output into `dir`.
-pub fn write(d: &Diagnosis, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let j = json(d);
-    std::fs::write(
-        dir.join("report.json"),
-        serde_json::to_string_pretty(&j)? + "\n",
-    )
-    .with_context(|| format!("cannot write {}", dir.join("report.json").display()))?;
-    d.ident
-        .model
-        .save(&dir.join("baseline.json"))
-        .with_context(|| format!("cannot write {}", dir.join("baseline.json").display()))?;
-    augmented_model(d)
-        .save(&dir.join("augmented.json"))
-        .with_context(|| format!("cannot write {}", dir.join("augmented.json").display()))?;
+pub fn write(d: &Diagnosis, dir: &Path) -> std::result::Result<(), DiagnoseError> {
+    let io = |what: &'static str, path: std::path::PathBuf| {
+        move |err: std::io::Error| ReportError::Io { what, path, err }
+    };
+    std::fs::create_dir_all(dir).map_err(io("cannot create", dir.to_path_buf()))?;
+    let text = serde_json::to_string_pretty(&json(d)).unwrap_or_else(|_| "{}".into()) + "\n";
+    let path = dir.join("report.json");
+    std::fs::write(&path, text).map_err(io("cannot write", path.clone()))?;
+    d.ident.model.save(&dir.join("baseline.json"))?;
+    augmented_model(d).save(&dir.join("augmented.json"))?;
     let figs = plots(d, dir)?;
-    std::fs::write(dir.join("report.md"), markdown(d, &figs))
-        .with_context(|| format!("cannot write {}", dir.join("report.md").display()))?;
+    let path = dir.join("report.md");
+    std::fs::write(&path, markdown(d, &figs)).map_err(io("cannot write", path.clone()))?;
     Ok(())
 }
