@@ -3,7 +3,7 @@
 //!
 //! What makes it independent of what diagnose fits:
 //!
-//! - **Its own lab conventions** ([`lab`]): every scenario draws its own rig (gains and
+//! - **Its own lab conventions** (`lab.rs`): every scenario draws its own rig (gains and
 //!   exponents of the steady map moved, the magnet's distance offset and remanence off by up
 //!   to a millimetre and 10 %), its own visit noise and row noise, its own transient (a
 //!   first-order approach with its own time constant, not ODE (4)). Only the baseline steady

@@ -27,9 +27,10 @@
 //! least 90 % of its gain); otherwise the learned shape goes into the model as a learned
 //! effect term (heights at knots with their SDs).
 //!
-//! The parts: [`world`] (the linear world of one log: the baseline's directions and the rows'
-//! context), [`variants`] (the candidates and their variants), [`score`] (a round's gains and
-//! their simulated nulls), [`forms`] (library form or learned shape for each named effect).
+//! The parts: `world.rs` (the linear world of one log: the baseline's directions and the rows'
+//! context), `variants.rs` (the candidates and their variants), `score.rs` (a round's gains
+//! and their simulated nulls), `forms.rs` (library form or learned shape for each named
+//! effect).
 
 mod forms;
 mod score;
