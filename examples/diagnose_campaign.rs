@@ -72,16 +72,23 @@ fn main() -> Result<()> {
         tp.display(),
         wp.display()
     );
-    let args = diagnose::DiagnoseArgs {
-        log: tp,
-        withheld: Some(wp),
-        model: None,
-        out: out.clone(),
-        alpha: 0.01,
-        folds: 5,
-        bootstrap: 499,
-        seed: 1,
-        lenient: false,
+    let log = magswarm::log::Log::read(&tp)?;
+    let withheld = magswarm::log::Log::read(&wp)?;
+    let cfg = diagnose::Config {
+        progress: true,
+        ..diagnose::Config::default()
     };
-    diagnose::run(&args)
+    let d = diagnose::diagnose(
+        &log,
+        Some(&withheld),
+        &magswarm::model::Model::paper(),
+        &cfg,
+    )?;
+    diagnose::report::write(&d, &out)?;
+    eprint!("{}", diagnose::report::summary(&d));
+    eprintln!(
+        "diagnose_campaign: report in {}",
+        out.join("report.md").display()
+    );
+    Ok(())
 }

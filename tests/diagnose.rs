@@ -302,18 +302,22 @@ fn command_writes_the_contract_files() {
     std::fs::write(dir.path().join("in.csv"), c.csv().unwrap()).unwrap();
     std::fs::write(dir.path().join("w.csv"), w.csv().unwrap()).unwrap();
     let out = dir.path().join("out");
-    diagnose::run(&diagnose::DiagnoseArgs {
-        log: dir.path().join("in.csv"),
-        withheld: Some(dir.path().join("w.csv")),
-        model: None,
-        out: out.clone(),
-        alpha: 0.01,
-        folds: 5,
-        bootstrap: 199,
-        seed: 1,
-        lenient: false,
-    })
-    .unwrap();
+    let st = std::process::Command::new(env!("CARGO_BIN_EXE_magswarm"))
+        .arg("diagnose")
+        .arg("--log")
+        .arg(dir.path().join("in.csv"))
+        .arg("--withheld")
+        .arg(dir.path().join("w.csv"))
+        .arg("--out")
+        .arg(&out)
+        .args(["--bootstrap", "199"])
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     assert!(j["gap"]["significant"].is_boolean());

@@ -1,4 +1,4 @@
-//! Arguments of `magswarm diagnose` (run by [`crate::diagnose::run`]).
+//! Arguments of `magswarm diagnose` and the command itself over the library (`crate::diagnose`).
 
 use std::path::PathBuf;
 
@@ -33,4 +33,46 @@ pub struct DiagnoseArgs {
     /// Skip bad rows (each reported on stderr) instead of failing.
     #[arg(long)]
     pub lenient: bool,
+}
+
+impl DiagnoseArgs {
+    /// The library's options.
+    pub fn config(&self) -> anyhow::Result<crate::diagnose::Config> {
+        if !(self.alpha > 0.0 && self.alpha < 0.5) {
+            anyhow::bail!("--alpha {}: must lie in (0, 0.5)", self.alpha);
+        }
+        Ok(crate::diagnose::Config {
+            alpha: self.alpha,
+            folds: self.folds.max(2),
+            boot: self.bootstrap.max(19),
+            seed: self.seed,
+            progress: true,
+            ..crate::diagnose::Config::default()
+        })
+    }
+}
+
+/// Run `magswarm diagnose`: read the logs, diagnose, write the report, print its summary.
+pub fn run(a: &DiagnoseArgs) -> anyhow::Result<()> {
+    use crate::log::{Log, ReadOptions};
+    use magswarm_model::Model;
+    let cfg = a.config()?;
+    let prior = Model::load_or_paper(a.model.as_deref())?;
+    let opts = ReadOptions { lenient: a.lenient };
+    let log = Log::read_with(&a.log, opts)?;
+    for s in &log.skipped {
+        eprintln!("diagnose: warning: {}: skipped {s}", log.source);
+    }
+    let w = match &a.withheld {
+        Some(p) => Some(Log::read_with(p, opts)?),
+        None => None,
+    };
+    let d = crate::diagnose::diagnose(&log, w.as_ref(), &prior, &cfg)?;
+    crate::diagnose::report::write(&d, &a.out)?;
+    eprint!("{}", crate::diagnose::report::summary(&d));
+    eprintln!(
+        "diagnose: report written to {}",
+        a.out.join("report.md").display()
+    );
+    Ok(())
 }

@@ -1,4 +1,4 @@
-//! Arguments of `magswarm lab` (run by [`crate::lab::run`]).
+//! Arguments of `magswarm lab` and the command itself over the library (`crate::lab`).
 
 use std::path::PathBuf;
 
@@ -59,4 +59,102 @@ pub struct LabArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+}
+
+impl LabArgs {
+    /// The library's options: each `--effect NAME[=STRENGTH]` parsed (strength 1 by default).
+    pub fn options(&self) -> anyhow::Result<crate::lab::LabOptions> {
+        let mut effects = Vec::new();
+        for e in &self.effects {
+            let (name, strength) = match e.split_once('=') {
+                Some((n, s)) => {
+                    let v: f64 = s.trim().parse().map_err(|_| {
+                        anyhow::anyhow!("--effect {e}: strength {s:?} is not a number")
+                    })?;
+                    if !(v.is_finite() && v >= 0.0) {
+                        anyhow::bail!("--effect {e}: strength must be >= 0");
+                    }
+                    (n.trim(), v)
+                }
+                None => (e.trim(), 1.0),
+            };
+            effects.push((name.to_string(), strength));
+        }
+        Ok(crate::lab::LabOptions {
+            truth: self.truth.clone(),
+            scenario: self.scenario.clone(),
+            protocol: self.protocol.clone(),
+            sessions: self.sessions,
+            repeats: self.repeats,
+            visits: self.visits,
+            settle_s: self.settle_s,
+            sample_s: self.sample_s,
+            effects,
+            no_noise: self.no_noise,
+        })
+    }
+}
+
+/// Run `magswarm lab`: resolve the scenario, generate the rows with a progress bar, write
+/// the log, say what was written.
+pub fn run(a: &LabArgs) -> anyhow::Result<()> {
+    use crate::log::{Layout, LogWriter};
+    use anyhow::Context;
+    let sc = crate::lab::resolve(&a.options()?)?;
+    if a.print_scenario {
+        println!("{}", serde_json::to_string_pretty(&sc)?);
+        return Ok(());
+    }
+    let model = sc.truth_model()?;
+    let pb = if a.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let pb = indicatif::ProgressBar::new(0);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "lab {bar:30} {pos}/{len} visits {elapsed} (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        pb
+    };
+    let rows = crate::lab::generate(&model, &sc, a.seed, |done, total| {
+        pb.set_length(total as u64);
+        pb.set_position(done as u64);
+    })?;
+    pb.finish_and_clear();
+    let layout = Layout::standard(true, sc.sessions > 1, true, false);
+    let mut w = LogWriter::create(&a.out, layout)
+        .with_context(|| format!("cannot write {}", a.out.display()))?;
+    for r in &rows {
+        w.write_row(r)
+            .with_context(|| format!("writing {}", a.out.display()))?;
+    }
+    w.finish()
+        .with_context(|| format!("writing {}", a.out.display()))?;
+    let invalid = rows.iter().filter(|r| !r.valid).count();
+    let all: Vec<String> = model
+        .effects
+        .enabled()
+        .iter()
+        .map(|s| s.to_string())
+        .chain(
+            sc.foreign
+                .iter()
+                .map(|f| format!("{} (foreign form)", f.effect())),
+        )
+        .collect();
+    eprintln!(
+        "lab: wrote {} rows ({} invalid) in {} session(s) to {}; truth effects: {}",
+        rows.len(),
+        invalid,
+        sc.sessions,
+        a.out.display(),
+        if all.is_empty() {
+            "none".to_string()
+        } else {
+            all.join(", ")
+        }
+    );
+    Ok(())
 }

@@ -107,10 +107,10 @@ pub fn main(cli: &Cli) -> i32 {
         Cmd::Fmu(a) => fmu::run(a),
         Cmd::Predict(a) => predict::run(a),
         Cmd::Identify(a) => identify::run(a),
-        Cmd::Diagnose(a) => crate::diagnose::run(a),
+        Cmd::Diagnose(a) => diagnose::run(a),
         Cmd::Inverse(a) => control::run_inverse(a),
         Cmd::Linearize(a) => control::run_linearize(a),
-        Cmd::Lab(a) => crate::lab::run(a),
+        Cmd::Lab(a) => lab::run(a),
         Cmd::Sweep(a) => sweep::run(a),
     };
     match result {

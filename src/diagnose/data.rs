@@ -7,11 +7,11 @@
 //! row's inputs; it is computed once from the baseline and held fixed while candidates are
 //! refitted (the steady map and the effects are refitted, the baseline's time scales are not).
 
+use super::DiagnoseError;
 use crate::identify::data::{self as idata, key, Session};
 use crate::identify::fit::predict_point;
 use crate::log::Log;
 use crate::predict::{replay, InputRow};
-use anyhow::{Context, Result};
 use magswarm_model::Model;
 use std::collections::BTreeMap;
 
@@ -83,7 +83,7 @@ pub struct Dataset {
 impl Dataset {
     /// Build from identify's sessions (classified) and the baseline model (for the transient
     /// part). `points` may be pre-seeded (to share point indices with another data set).
-    pub fn build(sessions: &[Session], baseline: &Model) -> Result<Dataset> {
+    pub fn build(sessions: &[Session], baseline: &Model) -> Result<Dataset, DiagnoseError> {
         let mut ds = Dataset {
             rows: Vec::new(),
             visits: Vec::new(),
@@ -104,8 +104,10 @@ impl Dataset {
                     f_hz: r.f_hz,
                 })
                 .collect();
-            let rep = replay(baseline, &inputs, 1e-6)
-                .with_context(|| format!("replaying session {} through the baseline", s.name))?;
+            let rep = replay(baseline, &inputs, 1e-6).map_err(|source| DiagnoseError::Replay {
+                session: s.name.clone(),
+                source,
+            })?;
             // State at each visit's input change: the replay at the row before its first row
             // (the inputs change right after that row); a session starts formed at rest.
             let mut start: Vec<Option<[f64; 2]>> = vec![None; s.rows.len()];

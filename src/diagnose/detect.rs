@@ -85,38 +85,22 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
         (
             "inputs",
             "f_shape",
-            Family {
-                axis: Axis::F { nu: 0.0 },
-                mode: Mode::Add,
-                knots: shapes::knots_of(&fs, 10),
-                pin_last: false,
-                amp: 0.0,
-                smooth: 0.3,
-            },
+            Family::new(
+                Axis::F { nu: 0.0 },
+                Mode::Add,
+                shapes::knots_of(&fs, 10),
+                0.3,
+            ),
         ),
         (
             "inputs",
             "z_shape",
-            Family {
-                axis: Axis::Z,
-                mode: Mode::Add,
-                knots: shapes::knots_of(&zs, 8),
-                pin_last: false,
-                amp: 0.0,
-                smooth: 0.3,
-            },
+            Family::new(Axis::Z, Mode::Add, shapes::knots_of(&zs, 8), 0.3),
         ),
         (
             "drift",
             "t_shape",
-            Family {
-                axis: Axis::T,
-                mode: Mode::Add,
-                knots: shapes::knots_of(&rc.t, 8),
-                pin_last: false,
-                amp: 0.0,
-                smooth: 0.3,
-            },
+            Family::new(Axis::T, Mode::Add, shapes::knots_of(&rc.t, 8), 0.3),
         ),
     ];
     if let Some(f) = since_family(rc, 0.3) {
@@ -140,12 +124,8 @@ pub fn since_family(rc: &RowCtx, smooth: f64) -> Option<Family> {
     }
     knots.push(3.0 * last);
     Some(Family {
-        axis: Axis::Since,
-        mode: Mode::StepFraction,
-        knots,
         pin_last: true,
-        amp: 0.0,
-        smooth,
+        ..Family::new(Axis::Since, Mode::StepFraction, knots, smooth)
     })
 }
 
@@ -192,61 +172,70 @@ pub fn unweight(e: &DVector<f64>, w: [f64; 2]) -> Vec<[f64; 2]> {
         .collect()
 }
 
-/// The strongest box of neighbouring cells of the (z_m, f) grid: max over axes and boxes of
-/// |sum of visit residuals| / (visit SD sqrt(visits)). With `proper`, only boxes that span
-/// neither every z_m level nor every f level and hold at most 12 % of the visits (a
-/// local anomaly, not a shape along one input). Returns (statistic, axis, z cells, f cells).
+/// The strongest box of neighbouring cells of the (z_m, f) grid: max over boxes of
+/// |sum of visit residuals| / (visit SD sqrt(visits)), per radius (the larger of the two), or,
+/// with `joint`, the root sum of both radii's squares (an anomaly of both radii). With
+/// `proper`, only boxes that span neither every z_m level nor every f level and hold at most
+/// 12 % of the visits (a local anomaly, not a shape along one input: those are the smooth
+/// alternatives' business). Returns (statistic, axis (2: both), z cells, f cells).
 pub fn box_scan(
     ds: &Dataset,
     res: &[[f64; 2]],
     sd: [f64; 2],
     proper: bool,
+    joint: bool,
 ) -> (f64, usize, (usize, usize), (usize, usize)) {
     let vr = super::gap::visit_residuals(ds, res);
     let (cell, nz, nf) = noise::cells(ds);
     let nv = ds.visits.len();
-    let mut best = (0.0, 0, (0, 0), (0, 0));
-    for a in 0..2 {
-        // 2-D prefix sums of residual and count over the cells.
-        let mut s = vec![0.0; (nz + 1) * (nf + 1)];
-        let mut c = vec![0.0; (nz + 1) * (nf + 1)];
-        for (v, &(zi, fi)) in cell.iter().enumerate() {
-            s[(zi + 1) * (nf + 1) + fi + 1] += vr.e[v][a];
-            c[(zi + 1) * (nf + 1) + fi + 1] += 1.0;
+    // 2-D prefix sums of residual (per radius) and count over the cells.
+    let w = nf + 1;
+    let mut s = [vec![0.0; (nz + 1) * w], vec![0.0; (nz + 1) * w]];
+    let mut c = vec![0.0; (nz + 1) * w];
+    for (v, &(zi, fi)) in cell.iter().enumerate() {
+        for a in 0..2 {
+            s[a][(zi + 1) * w + fi + 1] += vr.e[v][a];
         }
-        for zi in 1..=nz {
-            for fi in 1..=nf {
-                let (i, up, left, diag) = (
-                    zi * (nf + 1) + fi,
-                    (zi - 1) * (nf + 1) + fi,
-                    zi * (nf + 1) + fi - 1,
-                    (zi - 1) * (nf + 1) + fi - 1,
-                );
-                s[i] += s[up] + s[left] - s[diag];
-                c[i] += c[up] + c[left] - c[diag];
+        c[(zi + 1) * w + fi + 1] += 1.0;
+    }
+    for zi in 1..=nz {
+        for fi in 1..=nf {
+            let (i, up, left, diag) = (
+                zi * w + fi,
+                (zi - 1) * w + fi,
+                zi * w + fi - 1,
+                (zi - 1) * w + fi - 1,
+            );
+            for t in s.iter_mut().chain(std::iter::once(&mut c)) {
+                t[i] += t[up] + t[left] - t[diag];
             }
         }
-        let rect = |t: &[f64], z0: usize, z1: usize, f0: usize, f1: usize| {
-            t[(z1 + 1) * (nf + 1) + f1 + 1]
-                - t[z0 * (nf + 1) + f1 + 1]
-                - t[(z1 + 1) * (nf + 1) + f0]
-                + t[z0 * (nf + 1) + f0]
-        };
-        for z0 in 0..nz {
-            for z1 in z0..nz {
-                for f0 in 0..nf {
-                    for f1 in f0..nf {
-                        if proper && ((z0 == 0 && z1 == nz - 1) || (f0 == 0 && f1 == nf - 1)) {
-                            continue;
-                        }
-                        let n = rect(&c, z0, z1, f0, f1);
-                        if n < 1.0 || (proper && n > (0.12 * nv as f64).max(4.0)) {
-                            continue;
-                        }
-                        let stat = rect(&s, z0, z1, f0, f1).abs() / (sd[a] * n.sqrt());
-                        if stat > best.0 {
-                            best = (stat, a, (z0, z1), (f0, f1));
-                        }
+    }
+    let rect = |t: &[f64], z0: usize, z1: usize, f0: usize, f1: usize| {
+        t[(z1 + 1) * w + f1 + 1] - t[z0 * w + f1 + 1] - t[(z1 + 1) * w + f0] + t[z0 * w + f0]
+    };
+    let mut best = (0.0, 0, (0, 0), (0, 0));
+    for z0 in 0..nz {
+        for z1 in z0..nz {
+            for f0 in 0..nf {
+                for f1 in f0..nf {
+                    if proper && ((z0 == 0 && z1 == nz - 1) || (f0 == 0 && f1 == nf - 1)) {
+                        continue;
+                    }
+                    let n = rect(&c, z0, z1, f0, f1);
+                    if n < 1.0 || (proper && n > (0.12 * nv as f64).max(4.0)) {
+                        continue;
+                    }
+                    let z = [0, 1].map(|a| rect(&s[a], z0, z1, f0, f1) / (sd[a] * n.sqrt()));
+                    let (stat, axis) = if joint {
+                        ((z[0] * z[0] + z[1] * z[1]).sqrt(), 2)
+                    } else if z[0].abs() >= z[1].abs() {
+                        (z[0].abs(), 0)
+                    } else {
+                        (z[1].abs(), 1)
+                    };
+                    if stat > best.0 {
+                        best = (stat, axis, (z0, z1), (f0, f1));
                     }
                 }
             }
@@ -258,7 +247,8 @@ pub fn box_scan(
 enum Kind {
     /// Index of the alternative's design.
     Design(usize),
-    Box,
+    /// The strongest local box, per radius or of both radii together.
+    Box { joint: bool },
 }
 
 /// Run the tests on the current residual.
@@ -301,7 +291,18 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             s
         })
         .collect();
-    alts.push(("inputs", "local_box".into(), Kind::Box, None));
+    alts.push((
+        "inputs",
+        "local_box".into(),
+        Kind::Box { joint: false },
+        None,
+    ));
+    alts.push((
+        "inputs",
+        "local_box r1+r2".into(),
+        Kind::Box { joint: true },
+        None,
+    ));
     // The statistics of one (real or simulated) weighted residual; `scale` studentises by the
     // visit noise this residual shows, relative to the real one's.
     let stats_of = |y: &DVector<f64>, real_sd: Option<[f64; 2]>| -> Option<(Vec<f64>, [f64; 2])> {
@@ -324,7 +325,8 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             .iter()
             .map(|(_, _, k, a)| match (k, a) {
                 (Kind::Design(i), Some(a)) => drops[*i][*a],
-                _ => box_scan(ds, &r0, sd, false).0,
+                (Kind::Box { joint }, _) => box_scan(ds, &r0, sd, true, *joint).0,
+                _ => 0.0,
             })
             .collect();
         Some((out, sd))

@@ -1,10 +1,11 @@
 //! Joint fit of the baseline's free steady parameters and the active effects' parameters on a
 //! subset of the rows (bounded Levenberg-Marquardt, as identify's steady fit).
 
-use super::candidates::{self, Augmented, Ctx, EffParam};
+use super::candidates::{self, Augmented, Ctx};
 use super::data::Dataset;
 use crate::identify::params::{self, Free};
 use crate::lm::{self, LevenbergMarquardt};
+use magswarm_model::effects::FitParam as EffParam;
 use nalgebra::{DMatrix, DVector};
 
 /// Most starts refined by a local fit (the rest of a start grid is ranked by cost only).
@@ -138,7 +139,7 @@ pub fn fit(
 ) -> FitResult {
     let mut knobs: Vec<Knob> = free.iter().map(|f| Knob::Base(*f)).collect();
     for (e, (name, _)) in start.effects.iter().enumerate() {
-        for (i, def) in candidates::params(name, ctx).into_iter().enumerate() {
+        for (i, def) in candidates::params(*name, ctx).into_iter().enumerate() {
             knobs.push(Knob::Eff {
                 effect: e,
                 idx: i,
@@ -199,7 +200,10 @@ pub fn fit(
                     };
                     let near = (lo && def.flag.0) || (hi && def.flag.1);
                     if near {
-                        at_bound.push((aug.effects[*effect].0.clone(), def.name.to_string()));
+                        at_bound.push((
+                            aug.effects[*effect].0.name().to_string(),
+                            def.name.to_string(),
+                        ));
                     }
                 }
             }

@@ -29,6 +29,7 @@ pub mod attribute;
 pub mod candidates;
 pub mod data;
 pub mod detect;
+pub mod error;
 pub mod fitter;
 pub mod gap;
 pub mod gp;
@@ -40,15 +41,13 @@ pub mod shapes;
 pub mod stats;
 
 use crate::identify::{self, data::SettleRule};
-use crate::log::{Log, ReadOptions};
-use anyhow::{bail, Context, Result};
+use crate::log::Log;
 use candidates::{Augmented, Ctx};
 use data::{Dataset, PureError};
+pub use error::DiagnoseError;
 use magswarm_model::Model;
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
-
-pub use crate::cli::DiagnoseArgs;
 
 /// Library face of the flags.
 #[derive(Debug, Clone, Copy)]
@@ -123,6 +122,9 @@ pub struct Withheld {
     pub baseline: Rmse,
     /// Augmented RMSE.
     pub augmented: Rmse,
+    /// Per valid row: its line in the file and the baseline's and the augmented model's
+    /// radii there \[mm\].
+    pub rows: Vec<(usize, [f64; 2], [f64; 2])>,
 }
 
 /// Everything a diagnosis produced.
@@ -213,30 +215,26 @@ fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
 }
 
 /// Refuse a log that cannot support a diagnosis, naming what is missing.
-fn check_usable(ds: &Dataset, source: &str) -> Result<()> {
+fn check_usable(ds: &Dataset, source: &str) -> Result<(), DiagnoseError> {
     let (zs, fs) = ds.levels();
+    let source_name = source.to_string();
     if ds.points.len() < 6 {
-        bail!(
-            "{source}: too few operating points: {} distinct (z_m, f) pair(s) with valid radii; \
-             a diagnosis needs at least 6 (the baseline alone has 8 free parameters on 2 radii \
-             per point, and the gap is judged by its structure over the points)",
-            ds.points.len()
-        );
+        return Err(DiagnoseError::TooFewPoints {
+            source_name,
+            points: ds.points.len(),
+        });
     }
     if fs.len() < 2 {
-        bail!(
-            "{source}: one frequency only ({} Hz): the frequency dependence of the model and \
-             the frequency effects (phase lag) cannot be judged; add visits at other \
-             frequencies",
-            fs[0]
-        );
+        return Err(DiagnoseError::OneFrequency {
+            source_name,
+            f_hz: fs[0],
+        });
     }
     if zs.len() < 2 {
-        bail!(
-            "{source}: one z_m only ({} mm): the distance dependence cannot be judged; add \
-             visits at other distances",
-            zs[0]
-        );
+        return Err(DiagnoseError::OneDistance {
+            source_name,
+            z_mm: zs[0],
+        });
     }
     Ok(())
 }
@@ -247,13 +245,15 @@ pub fn diagnose(
     withheld: Option<&Log>,
     prior: &Model,
     cfg: &Config,
-) -> Result<Diagnosis> {
+) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
     if !log.has_radii() {
-        bail!(
-            "{}: no r1_mm, r2_mm columns: diagnose needs measured radii",
-            log.source
-        );
+        return Err(DiagnoseError::NoRadii {
+            source_name: log.source.clone(),
+        });
+    }
+    for s in &log.skipped {
+        log::warn!("{}: skipped {s}", log.source);
     }
     let pb = progress_bar(cfg.progress, 3 + 1 + 6 + 5 + 4);
     pb.set_message("baseline");
@@ -269,7 +269,7 @@ pub fn diagnose(
     let mut prior = prior.clone();
     prior.effects = magswarm_model::effects::Effects::default();
     let ident = identify::identify(std::slice::from_ref(log), &prior, &icfg)
-        .context("fitting the baseline (identify)")?;
+        .map_err(DiagnoseError::Baseline)?;
     pb.inc(1);
     let baseline = ident.model.clone();
     let settle = ident.settle;
@@ -277,7 +277,7 @@ pub fn diagnose(
     let ds = Dataset::build(&sessions, &baseline)?;
     let pe = data::pure_error(&ds);
     check_usable(&ds, &log.source)?;
-    let ctx = Ctx::new(&baseline, &ds);
+    let ctx = candidates::context(&baseline, &ds);
     let base_aug = Augmented::baseline(&baseline, &ctx);
     let base_map = candidates::point_map(&base_aug, &ds);
     let base_pred = candidates::predict(&base_aug, &ds);
@@ -289,17 +289,17 @@ pub fn diagnose(
         .collect();
     let n_free = ident.steady.free.len();
     if pe.between_dof == 0 && ds.visits.len() < 3 * n_free {
-        bail!(
-            "{}: too few visits to decide: {} visit(s) and no repeats (no operating point \
-             visited twice), while the baseline alone has {n_free} free parameters; the gap is \
-             judged by the structure the visits leave beyond the baseline, which needs at least \
-             {} visits (or revisit points)",
-            log.source,
-            ds.visits.len(),
-            3 * n_free
-        );
+        return Err(DiagnoseError::TooFewVisits {
+            source_name: log.source.clone(),
+            visits: ds.visits.len(),
+            free: n_free,
+            need: 3 * n_free,
+        });
     }
-    let noise = noise::estimate(&ds, &res).map_err(|e| anyhow::anyhow!("{}: {e}", log.source))?;
+    let noise = noise::estimate(&ds, &res).map_err(|source| DiagnoseError::Noise {
+        source_name: log.source.clone(),
+        source,
+    })?;
     let nv = ds.visits.len();
     let k = cfg.folds.min(nv).max(2);
     let fold_of_visit = attribute::folds(nv, k, cfg.seed);
@@ -329,7 +329,9 @@ pub fn diagnose(
         },
         cfg.alpha,
     )
-    .with_context(|| format!("{}: the gap tests could not be computed", log.source))?;
+    .ok_or_else(|| DiagnoseError::GapTests {
+        source_name: log.source.clone(),
+    })?;
     let tests = to_tests(&det0, &res);
     let regions = if tests.significant {
         gap::localise(&ds, &res, &base_map, &tests)
@@ -427,15 +429,16 @@ pub fn diagnose(
         None => None,
         Some(w) => {
             if !w.has_radii() {
-                bail!("{}: the withheld log has no r1_mm, r2_mm columns", w.source);
+                return Err(DiagnoseError::WithheldNoRadii {
+                    source_name: w.source.clone(),
+                });
             }
             let ws = data::sessions(std::slice::from_ref(w), settle, &baseline);
             let wds = Dataset::build(&ws, &baseline)?;
             if wds.rows.is_empty() {
-                bail!(
-                    "{}: the withheld log has no valid rows with radii",
-                    w.source
-                );
+                return Err(DiagnoseError::WithheldEmpty {
+                    source_name: w.source.clone(),
+                });
             }
             let pb_ = candidates::predict(&attr.baseline.full.aug, &wds);
             let pa = candidates::predict(&attr.augmented.full.aug, &wds);
@@ -443,6 +446,12 @@ pub fn diagnose(
                 source: w.source.clone(),
                 baseline: rmse(&wds, &pb_),
                 augmented: rmse(&wds, &pa),
+                rows: wds
+                    .rows
+                    .iter()
+                    .zip(pb_.iter().zip(&pa))
+                    .map(|(r, (b, a))| (r.line, *b, *a))
+                    .collect(),
             })
         }
     };
@@ -466,42 +475,6 @@ pub fn diagnose(
         elapsed: t0.elapsed(),
         cfg: *cfg,
     })
-}
-
-/// Run the command.
-pub fn run(a: &DiagnoseArgs) -> Result<()> {
-    if !(a.alpha > 0.0 && a.alpha < 0.5) {
-        bail!("--alpha {}: must lie in (0, 0.5)", a.alpha);
-    }
-    let prior = match &a.model {
-        Some(p) => Model::load(p)?,
-        None => Model::paper(),
-    };
-    let opts = ReadOptions { lenient: a.lenient };
-    let log = Log::read_with(&a.log, opts)?;
-    for s in &log.skipped {
-        eprintln!("diagnose: warning: {}: skipped {s}", log.source);
-    }
-    let w = match &a.withheld {
-        Some(p) => Some(Log::read_with(p, opts)?),
-        None => None,
-    };
-    let cfg = Config {
-        alpha: a.alpha,
-        folds: a.folds.max(2),
-        boot: a.bootstrap.max(19),
-        seed: a.seed,
-        progress: true,
-        ..Config::default()
-    };
-    let d = diagnose(&log, w.as_ref(), &prior, &cfg)?;
-    report::write(&d, &a.out)?;
-    eprint!("{}", report::summary(&d));
-    eprintln!(
-        "diagnose: report written to {}",
-        a.out.join("report.md").display()
-    );
-    Ok(())
 }
 
 /// The settle rule diagnose inherits from identify's defaults (for the docs).

@@ -72,6 +72,10 @@ pub enum Mode {
     /// A deficit of the swarm's rotation rate \[Hz\]: the steady map at the drive frequency
     /// less the value (one value for both radii: a step-out slows the whole swarm).
     Rate,
+    /// A change of the swarm's aspect [-]: r1 (1 - v) and r2 (1 + v), one value for both
+    /// radii (stretched along one principal direction, squeezed along the other). Written
+    /// into the model file as a relative change with opposite heights.
+    Aspect,
 }
 
 impl Mode {
@@ -82,6 +86,7 @@ impl Mode {
             Mode::Relative => "relative",
             Mode::StepFraction => "step_fraction",
             Mode::Rate => "rate_hz",
+            Mode::Aspect => "aspect",
         }
     }
 }
@@ -102,6 +107,29 @@ pub struct Family {
     /// Exponent of the field in the amplitude: the value acts scaled by `(B(z_m)/B_mid)^amp`
     /// (a step-out that shows where the field is strong).
     pub amp: f64,
+    /// The radii the shape acts on (r1, r2): an effect may show in one only (a band of r2);
+    /// a shape that also fits the other radius would fit its noise. Ignored by `Rate`, which
+    /// acts on both through the map.
+    pub axes: [bool; 2],
+    /// The heights must run one way along the axis (a drift, a growth past an onset): each
+    /// radius' heights are a monotone block of the fit.
+    pub monotone: Option<linear::Monotone>,
+}
+
+impl Family {
+    /// A family acting on both radii, unscaled by the field, heights free at every knot.
+    pub fn new(axis: Axis, mode: Mode, knots: Vec<f64>, smooth: f64) -> Family {
+        Family {
+            axis,
+            mode,
+            knots,
+            pin_last: false,
+            smooth,
+            amp: 0.0,
+            axes: [true; 2],
+            monotone: None,
+        }
+    }
 }
 
 /// A fitted shape.
@@ -258,6 +286,7 @@ impl RowCtx {
                 Mode::Relative => self.pred[i][a],
                 Mode::StepFraction => self.delta[i][a],
                 Mode::Rate => -self.dmap_df[i][a],
+                Mode::Aspect => self.pred[i][a] * if a == 0 { -1.0 } else { 1.0 },
             }
     }
 }
@@ -267,9 +296,10 @@ fn free_knots(f: &Family) -> usize {
     f.knots.len() - usize::from(f.pin_last)
 }
 
-/// One set of heights for both radii (a rate deficit acts on the whole swarm).
+/// One set of heights for both radii (a rate deficit acts on the whole swarm, an aspect change
+/// on both principal radii at once).
 fn shared(f: &Family) -> bool {
-    f.mode == Mode::Rate
+    matches!(f.mode, Mode::Rate | Mode::Aspect)
 }
 
 /// The weighted columns of a family (stacked rows x 2 free-knot blocks, r1's then r2's) and
@@ -285,6 +315,9 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
                 continue;
             }
             for ax in 0..2 {
+                if blocks == 2 && !f.axes[ax] {
+                    continue;
+                }
                 let col = if blocks == 1 { j } else { ax * k + j };
                 a[(2 * i + ax, col)] = wt * rc.gain(f, i, ax) * rc.w[ax];
             }
@@ -297,6 +330,24 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     let info = info.max(1e-12);
     let pen = linear::roughness(k, blocks, f.smooth * info, 1e-3 * info);
     (a, pen)
+}
+
+/// The columns, penalty and monotone blocks of a family, as a design fragment.
+pub fn design(f: &Family, rc: &RowCtx) -> Design {
+    let (a, pen) = columns(f, rc);
+    let mut d = Design::new(a, pen);
+    if let Some(dir) = f.monotone {
+        let k = free_knots(f);
+        let blocks = if shared(f) { 1 } else { 2 };
+        d.mono = (0..blocks)
+            .map(|b| linear::MonoBlock {
+                start: b * k,
+                len: k,
+                dir,
+            })
+            .collect();
+    }
+    d
 }
 
 /// The shape whose heights are `coef` (the family's free knots, r1's then r2's) with their
@@ -312,36 +363,16 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
         }
         out
     };
+    let mut values = [take(coef, 0), take(coef, 1)];
+    if f.mode == Mode::Aspect {
+        // Per radius, as a relative change: r1 the opposite of r2.
+        values[0].iter_mut().for_each(|v| *v = -*v);
+    }
     Shape {
         family: f.clone(),
-        values: [take(coef, 0), take(coef, 1)],
+        values,
         sd: [take(sd, 0), take(sd, 1)],
     }
-}
-
-/// Fit a family on top of `base` to the weighted residual `y` on all rows: the shape (with
-/// SDs from the penalised normal equations) and the weighted fitted values of the whole
-/// design. None when the system is singular.
-pub fn fit(
-    base: &Design,
-    f: &Family,
-    rc: &RowCtx,
-    y: &nalgebra::DVector<f64>,
-) -> Option<(Shape, nalgebra::DVector<f64>)> {
-    let (cols, pen) = columns(f, rc);
-    let d = base.extend(&cols, &pen);
-    let g = d.a.tr_mul(&d.a) + &d.pen;
-    let c = nalgebra::Cholesky::new(g)?;
-    let beta = c.solve(&d.a.tr_mul(y));
-    let inv = c.inverse();
-    let p0 = base.cols();
-    let q = cols.ncols();
-    let coef: Vec<f64> = (0..q).map(|j| beta[p0 + j]).collect();
-    let sd: Vec<f64> = (0..q)
-        .map(|j| inv[(p0 + j, p0 + j)].max(0.0).sqrt())
-        .collect();
-    let fitted = &d.a * beta;
-    Some((shape_of(f, &coef, &sd), fitted))
 }
 
 #[cfg(test)]
@@ -364,6 +395,8 @@ mod tests {
                 knots: k.to_vec(),
                 pin_last: false,
                 amp: 0.0,
+                axes: [true; 2],
+                monotone: None,
                 smooth: 0.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],

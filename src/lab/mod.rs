@@ -28,12 +28,13 @@
 //! inputs are those in force since the previous row (the convention `predict` replays), so a
 //! noise-free lab run of a model without foreign effects is exactly `predict` of its inputs.
 
+pub mod error;
 pub mod plant;
 pub mod presets;
 pub mod protocol;
 pub mod truth;
 
-use anyhow::{bail, Context, Result};
+pub use error::LabError;
 use magswarm_model::{hz_to_rad_s, Model};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -41,7 +42,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-use crate::log::{Layout, LogRow, LogWriter};
+use crate::log::LogRow;
 pub use protocol::{Protocol, Visit};
 pub use truth::{Foreign, LabSwarm};
 
@@ -83,21 +84,24 @@ impl Noise {
         }
     }
 
-    fn validate(&self) -> Result<()> {
+    fn validate(&self) -> Result<(), LabError> {
         for (name, v) in [
             ("sd_mm", self.sd_mm),
             ("rel", self.rel),
             ("visit_sd_mm", self.visit_sd_mm),
         ] {
             if v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
-                bail!("noise.{name} must be finite and >= 0 (got {v:?})");
+                return Err(LabError::invalid(
+                    format!("noise.{name}"),
+                    format!("must be finite and >= 0 (got {v:?})"),
+                ));
             }
         }
         if !(0.0..=0.5).contains(&self.p_invalid) {
-            bail!(
-                "noise.p_invalid must be in [0, 0.5] (got {})",
-                self.p_invalid
-            );
+            return Err(LabError::invalid(
+                "noise.p_invalid",
+                format!("must be in [0, 0.5] (got {})", self.p_invalid),
+            ));
         }
         Ok(())
     }
@@ -154,29 +158,36 @@ impl Default for Scenario {
 
 impl Scenario {
     /// Read a scenario file; relative truth paths become relative to its folder.
-    pub fn load(path: &Path) -> Result<Scenario> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read scenario {}", path.display()))?;
-        let de = &mut serde_json::Deserializer::from_str(&text);
-        let mut s: Scenario = serde_path_to_error::deserialize(de).map_err(|e| {
-            anyhow::anyhow!("scenario {}: {}: {}", path.display(), e.path(), e.inner())
+    pub fn load(path: &Path) -> Result<Scenario, LabError> {
+        let text = std::fs::read_to_string(path).map_err(|source| LabError::ReadScenario {
+            path: path.to_path_buf(),
+            source,
         })?;
+        let de = &mut serde_json::Deserializer::from_str(&text);
+        let mut s: Scenario =
+            serde_path_to_error::deserialize(de).map_err(|e| LabError::ParseScenario {
+                path: path.to_path_buf(),
+                at: e.path().to_string(),
+                message: e.inner().to_string(),
+            })?;
         if let Some(t) = &s.truth {
             if t.is_relative() {
                 s.truth = Some(path.parent().unwrap_or(Path::new(".")).join(t));
             }
         }
-        s.validate()
-            .with_context(|| format!("scenario {}", path.display()))?;
+        s.validate().map_err(|e| LabError::InScenario {
+            path: path.to_path_buf(),
+            source: Box::new(e),
+        })?;
         Ok(s)
     }
 
     /// Check every part.
-    pub fn validate(&self) -> Result<()> {
-        self.protocol.validate().map_err(anyhow::Error::msg)?;
+    pub fn validate(&self) -> Result<(), LabError> {
+        self.protocol.validate()?;
         self.noise.validate()?;
         if self.sessions == 0 {
-            bail!("sessions must be >= 1");
+            return Err(LabError::invalid("sessions", "must be >= 1"));
         }
         for f in &self.foreign {
             f.validate()?;
@@ -185,7 +196,7 @@ impl Scenario {
         for f in &self.foreign {
             let k = std::mem::discriminant(f);
             if seen.contains(&k) {
-                bail!("foreign effect {} given twice", f.effect());
+                return Err(LabError::DuplicateForeign(f.effect()));
             }
             seen.push(k);
         }
@@ -193,11 +204,8 @@ impl Scenario {
     }
 
     /// The truth model: the file named in the scenario, or the paper model.
-    pub fn truth_model(&self) -> Result<Model> {
-        match &self.truth {
-            None => Ok(Model::paper()),
-            Some(p) => Model::load(p).context("truth model"),
-        }
+    pub fn truth_model(&self) -> Result<Model, LabError> {
+        Ok(Model::load_or_paper(self.truth.as_deref())?)
     }
 }
 
@@ -207,7 +215,7 @@ pub fn generate(
     sc: &Scenario,
     seed: u64,
     mut progress: impl FnMut(usize, usize),
-) -> Result<Vec<LogRow>> {
+) -> Result<Vec<LogRow>, LabError> {
     sc.validate()?;
     let mut rng = StdRng::seed_from_u64(seed);
     let sessions: Vec<Vec<Visit>> = (0..sc.sessions)
@@ -239,13 +247,12 @@ pub fn generate(
                 sc.noise.visit_sd_mm[1] * gauss(&mut rng),
             ];
             for &t in &v.t_s {
-                swarm.advance_to(t).with_context(|| {
-                    format!(
-                        "session {} at t = {t} s (z_m {} mm, f {} Hz)",
-                        k + 1,
-                        v.z_mm,
-                        v.f_hz
-                    )
+                swarm.advance_to(t).map_err(|e| LabError::Integrate {
+                    session: k + 1,
+                    t,
+                    z_mm: e.z_mm,
+                    f_hz: e.f_hz,
+                    message: e.message,
                 })?;
                 let truth = swarm.true_radii(&mut rng);
                 let sd = sc.noise.sd_at(truth);
@@ -279,10 +286,34 @@ fn round4(v: f64) -> f64 {
     (v * 1e4).round() / 1e4
 }
 
-pub use crate::cli::LabArgs;
+/// What `magswarm lab` asks for besides the scenario file: the options that override it
+/// (None: keep the file's or the default's value). The command's arguments convert into it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LabOptions {
+    /// Truth model file (replaces the scenario's).
+    pub truth: Option<PathBuf>,
+    /// Scenario file.
+    pub scenario: Option<PathBuf>,
+    /// Protocol: grid, sweep, steps or long (replaces the scenario's with its defaults).
+    pub protocol: Option<String>,
+    /// Sessions.
+    pub sessions: Option<usize>,
+    /// Grid: measurements per visit.
+    pub repeats: Option<usize>,
+    /// Grid: passes over the grid per session.
+    pub visits: Option<usize>,
+    /// Grid: wait after an input change before the first measurement \[s\].
+    pub settle_s: Option<f64>,
+    /// Time between measurements \[s\].
+    pub sample_s: Option<f64>,
+    /// Effects added in the lab's foreign form: (name, strength).
+    pub effects: Vec<(String, f64)>,
+    /// Noise-free measurements.
+    pub no_noise: bool,
+}
 
-/// The scenario of the arguments: the file (or defaults), then the options on top.
-pub fn resolve(a: &LabArgs) -> Result<Scenario> {
+/// The scenario of the options: the file (or defaults), then the options on top.
+pub fn resolve(a: &LabOptions) -> Result<Scenario, LabError> {
     let mut sc = match &a.scenario {
         Some(p) => Scenario::load(p)?,
         None => Scenario::default(),
@@ -293,25 +324,21 @@ pub fn resolve(a: &LabArgs) -> Result<Scenario> {
     if let Some(kind) = &a.protocol {
         match kind.as_str() {
             "long" => {
-                sc.protocol = Protocol::default_of("grid").expect("grid");
+                sc.protocol = default_protocol();
                 if let Protocol::Grid { visits, .. } = &mut sc.protocol {
                     *visits = 2;
                 }
                 sc.sessions = 3;
             }
             k => {
-                sc.protocol = Protocol::default_of(k).with_context(|| {
-                    format!("--protocol {k:?}: expected grid, sweep, steps or long")
-                })?;
+                sc.protocol = Protocol::default_of(k)
+                    .ok_or_else(|| LabError::UnknownProtocol(k.to_string()))?;
             }
         }
     }
     if let Some(n) = a.sessions {
         sc.sessions = n;
     }
-    let grid_only = |name: &str| {
-        anyhow::anyhow!("--{name} applies to the grid protocol only (use a scenario file)")
-    };
     match &mut sc.protocol {
         Protocol::Grid {
             visits,
@@ -335,100 +362,31 @@ pub fn resolve(a: &LabArgs) -> Result<Scenario> {
         }
         Protocol::Sweep { sample_s, .. } | Protocol::Steps { sample_s, .. } => {
             if a.repeats.is_some() {
-                return Err(grid_only("repeats"));
+                return Err(LabError::GridOnly("repeats"));
             }
             if a.visits.is_some() {
-                return Err(grid_only("visits"));
+                return Err(LabError::GridOnly("visits"));
             }
             if a.settle_s.is_some() {
-                return Err(grid_only("settle-s"));
+                return Err(LabError::GridOnly("settle-s"));
             }
             if let Some(v) = a.sample_s {
                 *sample_s = v;
             }
         }
     }
-    for e in &a.effects {
-        let (name, strength) = match e.split_once('=') {
-            Some((n, s)) => {
-                let v: f64 = s
-                    .trim()
-                    .parse()
-                    .map_err(|_| anyhow::anyhow!("--effect {e}: strength {s:?} is not a number"))?;
-                if !(v.is_finite() && v >= 0.0) {
-                    bail!("--effect {e}: strength must be >= 0");
-                }
-                (n.trim(), v)
-            }
-            None => (e.trim(), 1.0),
-        };
-        let f = presets::foreign(name, strength).with_context(|| format!("--effect {e}"))?;
-        sc.foreign.push(f);
+    for (name, strength) in &a.effects {
+        if !(strength.is_finite() && *strength >= 0.0) {
+            return Err(LabError::invalid(
+                format!("effect {name}"),
+                format!("strength {strength} must be >= 0"),
+            ));
+        }
+        sc.foreign.push(presets::foreign(name, *strength)?);
     }
     if a.no_noise {
         sc.noise = Noise::none();
     }
     sc.validate()?;
     Ok(sc)
-}
-
-/// Run the command.
-pub fn run(a: &LabArgs) -> Result<()> {
-    let sc = resolve(a)?;
-    if a.print_scenario {
-        println!("{}", serde_json::to_string_pretty(&sc)?);
-        return Ok(());
-    }
-    let model = sc.truth_model()?;
-    let pb = if a.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        let pb = indicatif::ProgressBar::new(0);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template(
-                "lab {bar:30} {pos}/{len} visits {elapsed} (eta {eta})",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        pb
-    };
-    let rows = generate(&model, &sc, a.seed, |done, total| {
-        pb.set_length(total as u64);
-        pb.set_position(done as u64);
-    })?;
-    pb.finish_and_clear();
-    let layout = Layout::standard(true, sc.sessions > 1, true, false);
-    let mut w = LogWriter::create(&a.out, layout)
-        .with_context(|| format!("cannot write {}", a.out.display()))?;
-    for r in &rows {
-        w.write_row(r)
-            .with_context(|| format!("writing {}", a.out.display()))?;
-    }
-    w.finish()
-        .with_context(|| format!("writing {}", a.out.display()))?;
-    let invalid = rows.iter().filter(|r| !r.valid).count();
-    let effects = model.effects.enabled();
-    let foreign: Vec<String> = sc
-        .foreign
-        .iter()
-        .map(|f| format!("{} (foreign form)", f.effect()))
-        .collect();
-    let all: Vec<String> = effects
-        .iter()
-        .map(|s| s.to_string())
-        .chain(foreign)
-        .collect();
-    eprintln!(
-        "lab: wrote {} rows ({} invalid) in {} session(s) to {}; truth effects: {}",
-        rows.len(),
-        invalid,
-        sc.sessions,
-        a.out.display(),
-        if all.is_empty() {
-            "none".to_string()
-        } else {
-            all.join(", ")
-        }
-    );
-    Ok(())
 }

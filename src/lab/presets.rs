@@ -21,9 +21,9 @@
 //! (formation effects show there), then 20 s settle and 4 repeats 1 s apart (600 rows), with
 //! the lab's default noise.
 
-use super::{generate, Foreign, Noise, Protocol, Scenario};
+use super::{generate, Foreign, LabError, Noise, Protocol, Scenario};
 use crate::log::{Layout, Log, LogRow, LogWriter};
-use anyhow::{bail, Result};
+use magswarm_model::effects::EffectKind;
 use magswarm_model::Model;
 
 /// The paper model with its free steady parameters moved: a rig that is not the paper's.
@@ -43,41 +43,43 @@ pub fn rig_truth() -> Model {
 }
 
 /// The foreign form of an effect at strength `s` (module table).
-pub fn foreign(name: &str, s: f64) -> Result<Foreign> {
-    Ok(match name {
-        "phase_lag" => Foreign::PhaseLagLogistic {
+pub fn foreign(name: &str, s: f64) -> Result<Foreign, LabError> {
+    let Some(kind) = EffectKind::from_name(name) else {
+        return Err(LabError::UnknownEffect {
+            name: name.to_string(),
+            known: magswarm_model::effects::NAMES.join(", "),
+        });
+    };
+    Ok(match kind {
+        EffectKind::PhaseLag => Foreign::PhaseLagLogistic {
             f_c_hz: 6.0,
             width_hz: 0.6,
             depth: (0.9 * s).clamp(0.0, 0.99),
         },
-        "cohesion_loss" => Foreign::CohesionPoly {
+        EffectKind::CohesionLoss => Foreign::CohesionPoly {
             z0_mm: 14.0,
             gain: [0.0008 * s, 0.0015 * s],
             power: 2.0,
             tau_s: 0.5,
         },
-        "formation_lag" => Foreign::InputLag {
+        EffectKind::FormationLag => Foreign::InputLag {
             tau_s: 5.0 * s,
             delay_s: 1.5 * s,
         },
-        "particle_drift" => Foreign::DriftSqrt {
+        EffectKind::ParticleDrift => Foreign::DriftSqrt {
             c_per_sqrt_h: -0.18 * s,
         },
-        "centroid_offset" => Foreign::AxisTilt {
+        EffectKind::CentroidOffset => Foreign::AxisTilt {
             offset_mm: 10.0 * s,
             tilt_deg: 10.0 * s,
             z_ref_mm: 13.5,
         },
-        "camera_bias" => Foreign::CameraProjection {
+        EffectKind::CameraBias => Foreign::CameraProjection {
             tilt_deg: 25.0,
             axis_deg: 30.0,
             scale: 1.03,
             offset_mm: 0.7 * s,
         },
-        other => bail!(
-            "no foreign form for {other:?}; effects: {}",
-            magswarm_model::effects::NAMES.join(", ")
-        ),
     })
 }
 
@@ -95,11 +97,11 @@ pub struct Campaign {
 impl Campaign {
     /// The seed's grid visited twice (600 rows), with the named effects (name, strength)
     /// in their foreign forms.
-    pub fn seed_grid(effects: &[(&str, f64)], seed: u64) -> Result<Campaign> {
+    pub fn seed_grid(effects: &[(&str, f64)], seed: u64) -> Result<Campaign, LabError> {
         let foreign = effects
             .iter()
             .map(|(n, s)| foreign(n, *s))
-            .collect::<Result<Vec<_>>>()?;
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(Campaign {
             truth: rig_truth(),
             scenario: Scenario {
@@ -123,7 +125,7 @@ impl Campaign {
 
     /// The seed's grid visited once with 2 approach and 8 settled rows per visit (500 rows):
     /// the bench's size.
-    pub fn seed_grid_500(effects: &[(&str, f64)], seed: u64) -> Result<Campaign> {
+    pub fn seed_grid_500(effects: &[(&str, f64)], seed: u64) -> Result<Campaign, LabError> {
         let mut c = Campaign::seed_grid(effects, seed)?;
         if let Protocol::Grid {
             visits, repeats, ..
@@ -144,22 +146,23 @@ impl Campaign {
     }
 
     /// Generate the rows.
-    pub fn rows(&self) -> Result<Vec<LogRow>> {
+    pub fn rows(&self) -> Result<Vec<LogRow>, LabError> {
         generate(&self.truth, &self.scenario, self.seed, |_, _| {})
     }
 
     /// The log as CSV text (the format `magswarm lab` writes).
-    pub fn csv(&self) -> Result<String> {
+    pub fn csv(&self) -> Result<String, LabError> {
         let layout = Layout::standard(true, self.scenario.sessions > 1, true, false);
         let mut w = LogWriter::new(Vec::new(), layout)?;
         for r in self.rows()? {
             w.write_row(&r)?;
         }
-        Ok(String::from_utf8(w.into_inner()?)?)
+        String::from_utf8(w.into_inner()?)
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e).into())
     }
 
     /// The log, parsed, named `name` in messages.
-    pub fn log(&self, name: &str) -> Result<Log> {
+    pub fn log(&self, name: &str) -> Result<Log, LabError> {
         Ok(Log::from_str_named(&self.csv()?, name)?)
     }
 }

@@ -6,6 +6,7 @@
 //! `n` times every `sample_s` seconds. Measurement logs record only measurements, so this
 //! timing is what `predict` replays (it holds each row's inputs since the previous row).
 
+use super::LabError;
 use rand::rngs::StdRng;
 use rand::RngExt;
 use serde::{Deserialize, Serialize};
@@ -144,27 +145,39 @@ impl Protocol {
     }
 
     /// Check the values; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), LabError> {
         let pos = |name: &str, v: f64| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(format!("protocol.{name} must be > 0 s (got {v})"))
+                Err(LabError::invalid(
+                    format!("protocol.{name}"),
+                    format!("must be > 0 s (got {v})"),
+                ))
             }
         };
         let nonneg = |name: &str, v: f64| {
             if v.is_finite() && v >= 0.0 {
                 Ok(())
             } else {
-                Err(format!("protocol.{name} must be >= 0 (got {v})"))
+                Err(LabError::invalid(
+                    format!("protocol.{name}"),
+                    format!("must be >= 0 (got {v})"),
+                ))
             }
         };
-        let inputs = |zs: &[f64], fs: &[f64]| -> Result<(), String> {
+        let inputs = |zs: &[f64], fs: &[f64]| -> Result<(), LabError> {
             if let Some(z) = zs.iter().find(|z| !(z.is_finite() && **z > -10.0)) {
-                return Err(format!("protocol z_m {z} mm is not a usable distance"));
+                return Err(LabError::invalid(
+                    "protocol z_m",
+                    format!("{z} mm is not a usable distance"),
+                ));
             }
             if let Some(f) = fs.iter().find(|f| !(f.is_finite() && **f > 0.0)) {
-                return Err(format!("protocol frequency {f} Hz must be > 0"));
+                return Err(LabError::invalid(
+                    "protocol frequency",
+                    format!("{f} Hz must be > 0"),
+                ));
             }
             Ok(())
         };
@@ -179,19 +192,28 @@ impl Protocol {
                 approach_s,
             } => {
                 if z_mm.is_empty() || f_hz.is_empty() {
-                    return Err("protocol.z_mm and protocol.f_hz need at least one value".into());
+                    return Err(LabError::invalid(
+                        "protocol.z_mm and protocol.f_hz",
+                        "need at least one value",
+                    ));
                 }
                 if *visits == 0 || *repeats == 0 {
-                    return Err("protocol.visits and protocol.repeats must be >= 1".into());
+                    return Err(LabError::invalid(
+                        "protocol.visits and protocol.repeats",
+                        "must be >= 1",
+                    ));
                 }
                 inputs(z_mm, f_hz)?;
                 nonneg("settle_s", *settle_s)?;
                 let mut prev = 0.0;
                 for (k, a) in approach_s.iter().enumerate() {
                     if !(a.is_finite() && *a > prev && *a < *settle_s) {
-                        return Err(format!(
-                            "protocol.approach_s[{k}] = {a}: approach times must increase, be > 0 \
-                             and lie before settle_s = {settle_s} s"
+                        return Err(LabError::invalid(
+                            format!("protocol.approach_s[{k}]"),
+                            format!(
+                                "= {a}: approach times must increase, be > 0 and lie before \
+                                 settle_s = {settle_s} s"
+                            ),
                         ));
                     }
                     prev = *a;
@@ -207,12 +229,16 @@ impl Protocol {
                 sample_s,
             } => {
                 if z_mm.is_empty() {
-                    return Err("protocol.z_mm needs at least one value".into());
+                    return Err(LabError::invalid(
+                        "protocol.z_mm",
+                        "needs at least one value",
+                    ));
                 }
                 inputs(z_mm, &[*f_min_hz, *f_max_hz])?;
                 if f_max_hz < f_min_hz {
-                    return Err(format!(
-                        "protocol.f_max_hz {f_max_hz} is below f_min_hz {f_min_hz}"
+                    return Err(LabError::invalid(
+                        "protocol.f_max_hz",
+                        format!("{f_max_hz} is below f_min_hz {f_min_hz}"),
                     ));
                 }
                 pos("f_step_hz", *f_step_hz)?;
@@ -227,11 +253,11 @@ impl Protocol {
                 sample_s,
             } => {
                 if *n_steps == 0 {
-                    return Err("protocol.n_steps must be >= 1".into());
+                    return Err(LabError::invalid("protocol.n_steps", "must be >= 1"));
                 }
                 inputs(z_range_mm, f_range_hz)?;
                 if z_range_mm[1] < z_range_mm[0] || f_range_hz[1] < f_range_hz[0] {
-                    return Err("protocol ranges must be [low, high]".into());
+                    return Err(LabError::invalid("protocol ranges", "must be [low, high]"));
                 }
                 pos("dwell_s", *dwell_s)?;
                 pos("sample_s", *sample_s)

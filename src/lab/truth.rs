@@ -12,7 +12,8 @@
 //! | `axis_tilt` | centroid offset | the centroid's distance from the axis grows with depth (tilted rotation axis): rho = rho_0 + offset + tan(tilt) (z - z_ref) |
 //! | `bump` | none: an effect no candidate describes | a smooth local change of the radii around one operating point, amp_i exp(-((z - z0)/w_z)^2/2 - ((f - f0)/w_f)^2/2) mm (a resonance of the tank, a reflection the camera picks up there): what diagnose must report as unexplained rather than misname |
 
-use anyhow::{bail, Result};
+use super::LabError;
+use magswarm_model::effects::EffectKind;
 use magswarm_model::{hz_to_rad_s, Model, Plant};
 use rand::rngs::StdRng;
 use rand::RngExt;
@@ -110,24 +111,24 @@ impl Foreign {
     /// Name of the effect this foreign form stands for.
     pub fn effect(&self) -> &'static str {
         match self {
-            Foreign::PhaseLagLogistic { .. } => "phase_lag",
-            Foreign::CohesionPoly { .. } => "cohesion_loss",
-            Foreign::InputLag { .. } => "formation_lag",
-            Foreign::DriftSqrt { .. } => "particle_drift",
-            Foreign::CameraProjection { .. } => "camera_bias",
-            Foreign::AxisTilt { .. } => "centroid_offset",
+            Foreign::PhaseLagLogistic { .. } => EffectKind::PhaseLag.name(),
+            Foreign::CohesionPoly { .. } => EffectKind::CohesionLoss.name(),
+            Foreign::InputLag { .. } => EffectKind::FormationLag.name(),
+            Foreign::DriftSqrt { .. } => EffectKind::ParticleDrift.name(),
+            Foreign::CameraProjection { .. } => EffectKind::CameraBias.name(),
+            Foreign::AxisTilt { .. } => EffectKind::CentroidOffset.name(),
             Foreign::Bump { .. } => "bump (no candidate)",
         }
     }
 
     /// Check the values; the message names the kind and field.
-    pub fn validate(&self) -> Result<()> {
-        let fin = |name: &str, v: f64, lo: f64, hi: f64| -> Result<()> {
+    pub fn validate(&self) -> Result<(), LabError> {
+        let fin = |name: &str, v: f64, lo: f64, hi: f64| -> Result<(), LabError> {
             if !(v.is_finite() && v >= lo && v <= hi) {
-                bail!(
-                    "foreign {}: {name} = {v} not in [{lo}, {hi}]",
-                    self.effect()
-                );
+                return Err(LabError::invalid(
+                    format!("foreign {}: {name}", self.effect()),
+                    format!("= {v} not in [{lo}, {hi}]"),
+                ));
             }
             Ok(())
         };
@@ -321,7 +322,7 @@ impl LabSwarm {
     }
 
     /// Advance to session time `t_end` \[s\] under the commanded inputs.
-    pub fn advance_to(&mut self, t_end: f64) -> Result<()> {
+    pub fn advance_to(&mut self, t_end: f64) -> Result<(), StepFailed> {
         let lag = self.foreign.iter().find_map(|f| match *f {
             Foreign::InputLag { tau_s, delay_s } => Some((tau_s, delay_s)),
             _ => None,
@@ -439,8 +440,20 @@ pub fn project_ellipse(r: [f64; 2], phase: f64, tilt_deg: f64, axis_deg: f64) ->
     [1.0 / lmax.sqrt(), 1.0 / lmin.sqrt()]
 }
 
+/// The truth's ODE (4) could not be integrated: where, and the integrator's message.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("lab: ODE (4) could not be integrated at z_m = {z_mm:.3} mm, f = {f_hz:.3} Hz: {message}")]
+pub struct StepFailed {
+    /// z_m \[mm\].
+    pub z_mm: f64,
+    /// f \[Hz\].
+    pub f_hz: f64,
+    /// The integrator's message.
+    pub message: String,
+}
+
 /// Step, retrying in smaller pieces if the integrator gives up.
-fn step_robust(plant: &mut Plant, h: f64) -> Result<()> {
+fn step_robust(plant: &mut Plant, h: f64) -> Result<(), StepFailed> {
     if plant.step(h).is_ok() {
         return Ok(());
     }
@@ -448,11 +461,11 @@ fn step_robust(plant: &mut Plant, h: f64) -> Result<()> {
     for _ in 0..n {
         if let Err(e) = plant.step(h / n as f64) {
             let (z, w) = plant.inputs();
-            bail!(
-                "lab: ODE (4) could not be integrated at z_m = {:.3} mm, f = {:.3} Hz: {e}",
-                z * 1e3,
-                w / std::f64::consts::TAU
-            );
+            return Err(StepFailed {
+                z_mm: z * 1e3,
+                f_hz: w / std::f64::consts::TAU,
+                message: e.to_string(),
+            });
         }
     }
     Ok(())

@@ -101,6 +101,14 @@ def predicted(effects_model, schedule_log, tmp_path_factory):
     return np.array([[float(d[k]) for k in ("r1_mm", "r2_mm", "r1_ss_mm", "r2_ss_mm")] for d in data])
 
 
+def predict_radii(exe, model, inputs, out):
+    """`magswarm predict` of a model on an inputs CSV: (rows, 2) radii in mm."""
+    subprocess.run([str(exe), "predict", "--model", str(model), "--log", str(inputs), "--out",
+                    str(out)], check=True, capture_output=True)
+    with out.open() as fh:
+        return np.array([[float(r["r1_mm"]), float(r["r2_mm"])] for r in csv.DictReader(fh)])
+
+
 def run_fmu(md, unzipdir, vr, rows, model_file=None, fmu_log=None):
     """Replay the rows as predict does: inputs of row k held from row k-1 to row k. Radii in mm."""
     from fmpy.fmi2 import FMU2Slave
@@ -191,13 +199,8 @@ def test_diagnose_augmented_model_runs_in_the_fmu(model_description, unzipdir, v
         w = csv.writer(fh)
         w.writerow(["t_s", "z_m_mm", "f_hz"])
         w.writerows(rows)
-    preds = {}
-    for name in ("augmented", "baseline"):
-        p = d / f"pred_{name}.csv"
-        subprocess.run([str(exe), "predict", "--model", str(out / f"{name}.json"), "--log",
-                        str(inputs), "--out", str(p)], check=True, capture_output=True)
-        with p.open() as fh:
-            preds[name] = np.array([[float(r["r1_mm"]), float(r["r2_mm"])] for r in csv.DictReader(fh)])
+    preds = {name: predict_radii(exe, out / f"{name}.json", inputs, d / f"pred_{name}.csv")
+             for name in ("augmented", "baseline")}
     try:
         got = run_fmu(model_description, unzipdir, vr, rows, model_file=out / "augmented.json",
                       fmu_log=fmu_log)[:, :2]
@@ -206,3 +209,60 @@ def test_diagnose_augmented_model_runs_in_the_fmu(model_description, unzipdir, v
     err = np.abs(got - preds["augmented"]).max()
     assert err < 1e-4, f"FMU with augmented.json vs predict: max |diff| {err} mm"
     assert np.abs(preds["augmented"] - preds["baseline"]).max() > 0.2
+
+
+def test_diagnosed_learned_shape_runs_in_the_fmu(model_description, unzipdir, vr, fmu_log,
+                                                 tmp_path_factory):
+    """A learned shape as `magswarm diagnose` writes it, end to end: the seed's grid visited
+    once (10 rows a visit) with a +1 mm band of r2 at 5-6 Hz at every z_m, which no library
+    form describes; diagnose names phase_lag and writes its learned shape over f into
+    augmented.json; the FMU with that model (through `model_file`) reproduces `magswarm
+    predict`, and both differ from the baseline where the band is."""
+    exe = magswarm_exe()
+    d = tmp_path_factory.mktemp("learned")
+    rng = np.random.default_rng(7)
+    points = [(z, f) for z in (3.5, 8.5, 13.5, 18.5, 23.5) for f in range(1, 11)]
+    order = rng.permutation(len(points))
+    rows = []
+    t = 0.0
+    for i in order:
+        z, f = points[i]
+        for k in range(10):
+            rows.append((round(t + 3.0 + k, 3), z, float(f)))
+        t += 13.0
+    inputs = d / "inputs.csv"
+    with inputs.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t_s", "z_m_mm", "f_hz"])
+        w.writerows(rows)
+    paper = d / "paper.csv"
+    subprocess.run([str(exe), "predict", "--log", str(inputs), "--out", str(paper)], check=True,
+                   capture_output=True)
+    with paper.open() as fh:
+        truth = np.array([[float(r["r1_mm"]), float(r["r2_mm"])] for r in csv.DictReader(fh)])
+    f_of = np.array([r[2] for r in rows])
+    truth[:, 1] += np.where((f_of >= 5.0) & (f_of <= 6.0), 1.0, 0.0)
+    visit = np.repeat(rng.normal(0.0, [0.15, 0.3], size=(len(points), 2)), 10, axis=0)
+    meas = truth + visit + rng.normal(0.0, [0.2, 0.35], size=truth.shape)
+    log = d / "band.csv"
+    with log.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["t_s", "z_m_mm", "f_hz", "r1_mm", "r2_mm"])
+        w.writerows([(t, z, f, f"{a:.4f}", f"{b:.4f}") for (t, z, f), (a, b) in zip(rows, meas)])
+    out = d / "report"
+    subprocess.run([str(exe), "diagnose", "--log", str(log), "--bootstrap", "199", "--out",
+                    str(out)], check=True, capture_output=True)
+    report = json.loads((out / "report.json").read_text())
+    assert report["accepted"][:1] == ["phase_lag"], report["accepted"]
+    augmented = json.loads((out / "augmented.json").read_text())
+    learned = augmented["effects"].get("learned", [])
+    assert any(t["effect"] == "phase_lag" and t["axis"] == "f_hz" for t in learned), augmented["effects"]
+    preds = {name: predict_radii(exe, out / f"{name}.json", inputs, d / f"pred_{name}.csv")
+             for name in ("augmented", "baseline")}
+    got = run_fmu(model_description, unzipdir, vr, rows, model_file=out / "augmented.json",
+                  fmu_log=fmu_log)[:, :2]
+    err = np.abs(got - preds["augmented"]).max()
+    assert err < 1e-4, f"FMU with the learned shape vs predict: max |diff| {err} mm"
+    band = (f_of >= 5.0) & (f_of <= 6.0)
+    lift = (preds["augmented"] - preds["baseline"])[:, 1]
+    assert lift[band].mean() - lift[~band].mean() > 0.4, (lift[band].mean(), lift[~band].mean())

@@ -3,6 +3,8 @@
 
 use super::*;
 use crate::diagnose::{attribute, shapes};
+use crate::report::residual::{residual_map, ResidualMap};
+use magswarm_model::effects::LearnedAxis;
 
 /// Mean visit residual per point (NaN where a point has no visit).
 fn point_means(d: &Diagnosis, pred: &[[f64; 2]], a: usize) -> Vec<f64> {
@@ -26,70 +28,61 @@ fn point_means(d: &Diagnosis, pred: &[[f64; 2]], a: usize) -> Vec<f64> {
 
 pub(super) fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> {
     let mut out = Vec::new();
-    let (zs, fs) = d.ds.levels();
-    let grid_ok = zs.len() >= 2 && fs.len() >= 2 && zs.len() * fs.len() <= 40_000;
-    if grid_ok {
-        for a in 0..2 {
-            let before = point_means(d, &d.attr.baseline.pred, a);
-            let after = point_means(d, &d.attr.augmented.pred, a);
-            let vmax = before
+    for a in 0..2 {
+        let before = point_means(d, &d.attr.baseline.pred, a);
+        let after = point_means(d, &d.attr.augmented.pred, a);
+        let vmax = before
+            .iter()
+            .chain(&after)
+            .filter(|v| v.is_finite())
+            .fold(1e-9f64, |m, v| m.max(v.abs()));
+        let in_region: Vec<(f64, f64)> =
+            d.ds.points
                 .iter()
-                .chain(&after)
-                .filter(|v| v.is_finite())
-                .fold(1e-9f64, |m, v| m.max(v.abs()));
-            let in_region: Vec<(f64, f64)> =
+                .enumerate()
+                .filter(|(p, _)| {
+                    d.regions.iter().any(|r| {
+                        r.axis == a
+                            && r.kind == Kind::Inputs
+                            && r.visits.iter().any(|&v| d.ds.visits[v].point == *p)
+                    })
+                })
+                .map(|(_, &x)| x)
+                .collect();
+        for (tag, vals, title) in [
+            (
+                "before",
+                &before,
+                format!("Residual r{} (measured - baseline) over (z_m, f)", a + 1),
+            ),
+            (
+                "after",
+                &after,
+                format!("Residual r{} (measured - augmented) over (z_m, f)", a + 1),
+            ),
+        ] {
+            let points: Vec<(f64, f64, f64)> =
                 d.ds.points
                     .iter()
-                    .enumerate()
-                    .filter(|(p, _)| {
-                        d.regions.iter().any(|r| {
-                            r.axis == a
-                                && r.kind == Kind::Inputs
-                                && r.visits.iter().any(|&v| d.ds.visits[v].point == *p)
-                        })
-                    })
-                    .map(|(_, &x)| x)
+                    .zip(vals)
+                    .map(|(&(z, f), &v)| (z, f, v))
                     .collect();
-            for (tag, vals, title) in [
-                (
-                    "before",
-                    &before,
-                    format!("Residual r{} (measured - baseline) over (z_m, f)", a + 1),
-                ),
-                (
-                    "after",
-                    &after,
-                    format!("Residual r{} (measured - augmented) over (z_m, f)", a + 1),
-                ),
-            ] {
-                let mut grid = vec![vec![f64::NAN; zs.len()]; fs.len()];
-                for (p, &(z, f)) in d.ds.points.iter().enumerate() {
-                    let i = zs.iter().position(|x| (x - z).abs() < 1e-6).unwrap_or(0);
-                    let j = fs.iter().position(|x| (x - f).abs() < 1e-6).unwrap_or(0);
-                    grid[j][i] = vals[p];
-                }
-                let name = format!("residual_{tag}_r{}.png", a + 1);
-                plot::heatmap_diverging(
-                    &dir.join(&name),
-                    &Labels {
-                        title: &title,
-                        x: "z_m [mm]",
-                        y: "f [Hz]",
+            let name = format!("residual_{tag}_r{}.png", a + 1);
+            let drawn = residual_map(
+                &dir.join(&name),
+                &ResidualMap {
+                    title: &title,
+                    points: &points,
+                    marks: if tag == "before" { &in_region } else { &[] },
+                    marks_label: if tag == "before" && !in_region.is_empty() {
+                        "in a significant region"
+                    } else {
+                        ""
                     },
-                    &Heatmap {
-                        xs: &zs,
-                        ys: &fs,
-                        values: &grid,
-                        colorbar_label: "residual [mm]",
-                        marks: if tag == "before" { &in_region } else { &[] },
-                        marks_label: if tag == "before" && !in_region.is_empty() {
-                            "in a significant region"
-                        } else {
-                            ""
-                        },
-                        range: Some((-vmax, vmax)),
-                    },
-                )?;
+                    half_range: Some(vmax),
+                },
+            )?;
+            if drawn {
                 out.push((
                     name,
                     format!(
@@ -187,14 +180,14 @@ pub(super) fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> 
 }
 
 /// The axis a named effect is shown along: its learned shape's, else its physical one.
-fn effect_axis(name: &str, form: &attribute::Form) -> shapes::Axis {
+fn effect_axis(kind: EffectKind, form: &attribute::Form) -> shapes::Axis {
     match form {
         attribute::Form::Learned(sh) => sh.family.axis,
-        attribute::Form::Parametric => match name {
-            "phase_lag" => shapes::Axis::F { nu: 0.0 },
-            "particle_drift" => shapes::Axis::T,
-            "formation_lag" => shapes::Axis::Since,
-            _ => shapes::Axis::Z,
+        attribute::Form::Parametric => match kind.axis() {
+            LearnedAxis::FHz => shapes::Axis::F { nu: 0.0 },
+            LearnedAxis::TS => shapes::Axis::T,
+            LearnedAxis::SinceChangeS => shapes::Axis::Since,
+            LearnedAxis::ZmMm => shapes::Axis::Z,
         },
     }
 }
@@ -211,7 +204,7 @@ fn effect_figures(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> {
         let Some((lib, learned)) = &e.curves else {
             continue;
         };
-        let axis = effect_axis(&e.name, &e.form);
+        let axis = effect_axis(e.kind, &e.form);
         let b_mid = d.ctx.b_mid;
         let x_of = |i: usize| -> f64 {
             let r = &ds.rows[i];

@@ -197,7 +197,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             };
             let ps = if e.accepted && matches!(e.form, crate::diagnose::attribute::Form::Parametric)
             {
-                param_strings(&e.name, &e.model.full.aug.synced())
+                param_strings(e.kind, &e.model.full.aug.synced())
             } else {
                 Vec::new()
             };

@@ -4,9 +4,11 @@
 //! figures draw. `report.md` is written by `markdown.rs`, its figures by `figures.rs`.
 
 use super::gap::{self, Kind, Region};
+use super::DiagnoseError;
 use super::{candidates, Diagnosis, Rmse};
-use crate::plot::{self, Heatmap, Labels, Panel, Series};
-use anyhow::{Context, Result};
+use crate::plot::{self, Panel, Series};
+use crate::report::{ReportError, Result};
+use magswarm_model::effects::EffectKind;
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -58,8 +60,8 @@ fn pool(a: Rmse, b: Option<Rmse>) -> [f64; 2] {
 }
 
 /// The parameters of a candidate's effect in a fitted model, as `name = value unit` strings.
-fn param_strings(name: &str, m: &magswarm_model::Model) -> Vec<String> {
-    candidates::model_params(name, m)
+fn param_strings(kind: EffectKind, m: &magswarm_model::Model) -> Vec<String> {
+    candidates::model_params(kind, m)
         .into_iter()
         .map(|(p, u, v)| format!("{p} = {} {u}", g(v)))
         .collect()
@@ -89,7 +91,7 @@ pub fn json(d: &Diagnosis) -> Value {
         .iter()
         .map(|e| {
             let fitted = e.model.full.aug.synced();
-            let mp = candidates::model_params(&e.name, &fitted);
+            let mp = candidates::model_params(e.kind, &fitted);
             let params: serde_json::Map<String, Value> =
                 mp.iter().map(|(p, _, v)| (p.to_string(), json!(v))).collect();
             let tr = super::rmse(&d.ds, &e.model.pred);
@@ -309,23 +311,18 @@ fn describe_region(r: &Region) -> String {
 }
 
 /// Write every output into `dir`.
-pub fn write(d: &Diagnosis, dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let j = json(d);
-    std::fs::write(
-        dir.join("report.json"),
-        serde_json::to_string_pretty(&j)? + "\n",
-    )
-    .with_context(|| format!("cannot write {}", dir.join("report.json").display()))?;
-    d.ident
-        .model
-        .save(&dir.join("baseline.json"))
-        .with_context(|| format!("cannot write {}", dir.join("baseline.json").display()))?;
-    augmented_model(d)
-        .save(&dir.join("augmented.json"))
-        .with_context(|| format!("cannot write {}", dir.join("augmented.json").display()))?;
+pub fn write(d: &Diagnosis, dir: &Path) -> std::result::Result<(), DiagnoseError> {
+    let io = |what: &'static str, path: std::path::PathBuf| {
+        move |err: std::io::Error| ReportError::Io { what, path, err }
+    };
+    std::fs::create_dir_all(dir).map_err(io("cannot create", dir.to_path_buf()))?;
+    let text = serde_json::to_string_pretty(&json(d)).unwrap_or_else(|_| "{}".into()) + "\n";
+    let path = dir.join("report.json");
+    std::fs::write(&path, text).map_err(io("cannot write", path.clone()))?;
+    d.ident.model.save(&dir.join("baseline.json"))?;
+    augmented_model(d).save(&dir.join("augmented.json"))?;
     let figs = plots(d, dir)?;
-    std::fs::write(dir.join("report.md"), markdown(d, &figs))
-        .with_context(|| format!("cannot write {}", dir.join("report.md").display()))?;
+    let path = dir.join("report.md");
+    std::fs::write(&path, markdown(d, &figs)).map_err(io("cannot write", path.clone()))?;
     Ok(())
 }

@@ -1,0 +1,293 @@
+//! The form of each named effect: its library (parametric) form where it gains as much on
+//! withheld visits as the learned shape, the learned shape otherwise.
+
+use super::*;
+
+/// For each named effect, its library form against its learned shape; the final model and
+/// its design.
+pub(super) fn choose_forms(
+    lin: &Linear,
+    named: &[(EffectKind, Vec<Variant>)],
+    out: &mut Attribution,
+    st: Settings,
+    progress: &indicatif::ProgressBar,
+) -> (Augmented, Design, Vec<(EffectKind, Family)>) {
+    let ds = lin.ds;
+    let mut design = lin.jac.clone();
+    // The same, in the directions the model file can carry (no transient directions): where
+    // the library form and the learned shape are compared, both without them, as the nonlinear
+    // refits of the library form are.
+    let mut model_d = lin.model_jac();
+    let mut learned: Vec<(EffectKind, Family)> = Vec::new();
+    let mut parametric: Vec<EffectKind> = Vec::new();
+    // The last library fit (free parameters and library forms fitted together).
+    let mut last_lib: Option<Augmented> = None;
+    let one = vec![0usize; lin.y.len()];
+    for (name, vs) in named {
+        let vs = &prune_axes(lin, &design, vs);
+        let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
+        let mut shape_design = Some(design.clone());
+        for v in vs {
+            shape_design = match (shape_design, columns_of(v, &lin.rc)) {
+                (Some(d), Some(more)) => Some(d.append(&more)),
+                _ => None,
+            };
+        }
+        let is_shape = vs.iter().all(|v| matches!(v, Variant::Shape(_)));
+        let mut shape_model_d = Some(model_d.clone());
+        for v in vs {
+            shape_model_d = match (shape_model_d, columns_of(v, &lin.rc)) {
+                (Some(d), Some(more)) => Some(d.append(&more)),
+                _ => None,
+            };
+        }
+        let g_learned_model = match (
+            Solver::new(&model_d, &lin.fold_of_stacked, lin.k),
+            shape_model_d
+                .as_ref()
+                .and_then(|d| Solver::new(d, &lin.fold_of_stacked, lin.k)),
+        ) {
+            (Some(b), Some(s)) => gain(&b, &s, &lin.y, [1.0, 1.0]),
+            _ => f64::NEG_INFINITY,
+        };
+        let g_learned = match (&before, &shape_design) {
+            (Some(b), Some(d)) => Solver::new(d, &lin.fold_of_stacked, lin.k)
+                .map(|s| gain(b, &s, &lin.y, [1.0, 1.0]))
+                .unwrap_or(f64::NEG_INFINITY),
+            _ => f64::NEG_INFINITY,
+        };
+        // The library form: fitted by the nonlinear fitter on top of the baseline and the
+        // library forms named before it, its correction then one column of the design.
+        let lin_start = linear_model(lin, &learned).unwrap_or_else(|| lin.base.clone());
+        let mut start = match &last_lib {
+            Some(l) => Augmented {
+                learned: lin_start.learned.clone(),
+                ..l.clone()
+            },
+            None => lin_start,
+        };
+        // The same nonlinear refits per fold without it: what the library form's withheld
+        // gain is measured against (refitting nonlinearly gains by itself over the linear
+        // design; that must not count for the form).
+        let without = start.clone();
+        start.effects.push((*name, name.fit_neutral(lin.ctx)));
+        let starts = name.fit_starts(lin.ctx);
+        let all: Vec<usize> = (0..ds.rows.len()).collect();
+        let fr = fitter::fit(
+            &start,
+            lin.free,
+            ds,
+            lin.ctx,
+            &all,
+            lin.noise.row(),
+            &starts,
+        );
+        progress.inc(1);
+        let p_fit = candidates::predict(&fr.aug, ds);
+        let col = DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| {
+            let (i, ax) = (s / 2, s % 2);
+            let d = lin.rc.w[ax] * (p_fit[i][ax] - lin.p0[i][ax]);
+            if d.is_finite() {
+                d
+            } else {
+                0.0
+            }
+        });
+        // The library form's correction less what the free parameters already span.
+        let col = match Solver::new(&lin.jac, &one, 1) {
+            Some(s) => {
+                let r = s.residual(&DVector::from_column_slice(col.as_slice()));
+                DMatrix::from_column_slice(r.len(), 1, r.as_slice())
+            }
+            None => col,
+        };
+        let param_design = design.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
+        // The library form's withheld gain: each fold refitted by the nonlinear fitter (its
+        // location and shape included, from the full fit), against the current design's
+        // withheld residual. (A column from the full fit with a free amplitude would know
+        // the withheld visits through the fitted location.)
+        let cv_sse = |m: &Augmented, starts: &[Vec<f64>]| {
+            let cv = library_cv_from(lin, m, starts);
+            linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
+                let (i, a) = (s / 2, s % 2);
+                let v = lin.rc.w[a] * (ds.rows[i].r[a] - cv[i][a]);
+                if v.is_finite() {
+                    v
+                } else {
+                    1e3
+                }
+            }))
+        };
+        let g_param = match &before {
+            Some(_) if col.norm() > 1e-9 => {
+                // A form with a location (a step-out frequency, an onset distance) finds it on
+                // each fold's own rows; the others (time scales, rates: global, and costly
+                // to search per fold for a transient) refit locally from the full fit.
+                let located = name
+                    .fit_params(lin.ctx)
+                    .iter()
+                    .any(|p| p.location.is_some());
+                let e1 = if located {
+                    cv_sse(&start, &starts)
+                } else {
+                    cv_sse(&fr.aug, &[])
+                };
+                let e0 = cv_sse(&without, &[]);
+                0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
+            }
+            _ => f64::NEG_INFINITY,
+        };
+        let use_learned =
+            is_shape && g_learned_model.is_finite() && g_param < 0.9 * g_learned_model;
+        let learned_pred = shape_design
+            .as_ref()
+            .filter(|_| is_shape)
+            .and_then(|d| lin.evaluate(d))
+            .map(|x| x.0);
+        let mut e = out.evals.iter_mut().find(|e| e.kind == *name);
+        if let Some(e) = e.as_deref_mut() {
+            e.curves = Some((p_fit.clone(), learned_pred.unwrap_or_default()));
+        }
+        // Given the effects named before it (in whichever form they took), an effect that no
+        // longer gains what names an effect is dropped: it was explaining their leftovers.
+        if g_param.max(g_learned) < MIN_GAIN {
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned));
+                e.accepted = false;
+                e.implausible.push(format!(
+                    "dropped: with the effects named before it, its withheld gain is {:.2} < {MIN_GAIN}",
+                    g_param.max(g_learned)
+                ));
+            }
+            out.accepted.retain(|a| a != name.name());
+            continue;
+        }
+        if use_learned {
+            for v in vs {
+                if let Variant::Shape(f) = v {
+                    learned.push((*name, f.clone()));
+                }
+            }
+            design = shape_design.expect("shape design");
+            model_d = shape_model_d.expect("shape design");
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned_model));
+            }
+        } else {
+            parametric.push(*name);
+            // The fit refitted the earlier library forms and the free parameters with it.
+            last_lib = Some(fr.aug.clone());
+            design = param_design;
+            model_d = model_d.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
+            if let Some(e) = e {
+                e.form_gains = Some((g_param, g_learned_model));
+            }
+        }
+        let _ = st;
+    }
+    // The final model: learned heights and the free parameters from the linear fit; the
+    // library forms refitted by the nonlinear fitter with the learned shapes held.
+    let mut aug = linear_model(lin, &learned).unwrap_or_else(|| lin.base.clone());
+    let all: Vec<usize> = (0..ds.rows.len()).collect();
+    if let Some(mut lib) = last_lib {
+        // From the last library fit, which fitted the free parameters and every library form
+        // together (a joint refit from neutral values would stay where the effects vanish),
+        // with the learned shapes' heights from the linear fit.
+        lib.learned = aug.learned.clone();
+        aug = fitter::fit(&lib, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
+    } else if !aug.learned.is_empty() {
+        // The free parameters refitted by the nonlinear fitter with the learned heights held:
+        // the linear fit's one step from the baseline is exact only near it.
+        aug = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
+    }
+    aug.sync_model();
+    for (name, sh) in &aug.learned {
+        if let Some(e) = out.evals.iter_mut().find(|e| e.kind == *name) {
+            e.form = Form::Learned(sh.clone());
+        }
+    }
+    (aug, design, learned)
+}
+
+/// Withheld predictions of a fitted augmented model: each fold refitted on the other folds'
+/// rows by the nonlinear fitter, from the full fit.
+pub(super) fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
+    library_cv_from(lin, full, &[])
+}
+
+/// Withheld predictions of a model refitted per fold by the nonlinear fitter from `start`,
+/// with `starts` for its last effect's multi-start search (empty: a local refit from `start`).
+/// With starts, every fold finds the effect's location on its own training rows: a refit
+/// from the full fit would start where all rows put it, the withheld ones included.
+fn library_cv_from(lin: &Linear, start: &Augmented, starts: &[Vec<f64>]) -> Vec<[f64; 2]> {
+    let ds = lin.ds;
+    let mut cv = vec![[0.0; 2]; ds.rows.len()];
+    let fold_of_row: Vec<usize> = (0..ds.rows.len())
+        .map(|i| lin.fold_of_stacked[2 * i])
+        .collect();
+    for f in 0..lin.k {
+        let train: Vec<usize> = (0..ds.rows.len())
+            .filter(|&i| fold_of_row[i] != f)
+            .collect();
+        if train.len() == ds.rows.len() {
+            continue;
+        }
+        let fr = fitter::fit(
+            start,
+            lin.free,
+            ds,
+            lin.ctx,
+            &train,
+            lin.noise.row(),
+            starts,
+        );
+        let p = candidates::predict(&fr.aug, ds);
+        for i in 0..ds.rows.len() {
+            if fold_of_row[i] == f {
+                cv[i] = p[i];
+            }
+        }
+    }
+    cv
+}
+
+/// The radii each learned shape of a named effect acts on: a shape on both radii where the
+/// second radius gains at least one unit of withheld log-likelihood, else on the one radius
+/// that gains (an effect that shows in r2 alone does not also fit r1's noise).
+fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
+    let mut out: Vec<Variant> = Vec::new();
+    let mut d = design.clone();
+    for v in vs {
+        let mut best = v.clone();
+        if let Variant::Shape(f) = v {
+            if !matches!(f.mode, Mode::Rate | Mode::Aspect) {
+                let score = |axes: [bool; 2]| -> Option<f64> {
+                    let g = Family { axes, ..f.clone() };
+                    let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
+                    let s1 = Solver::new(
+                        &d.append(&shapes::design(&g, &lin.rc)),
+                        &lin.fold_of_stacked,
+                        lin.k,
+                    )?;
+                    Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+                };
+                if let Some(both) = score([true, true]) {
+                    let one = [[true, false], [false, true]]
+                        .into_iter()
+                        .filter_map(|a| score(a).map(|g| (g, a)))
+                        .max_by(|a, b| a.0.total_cmp(&b.0));
+                    if let Some((g, axes)) = one {
+                        if g >= both - 1.0 {
+                            best = Variant::Shape(Family { axes, ..f.clone() });
+                        }
+                    }
+                }
+            }
+        }
+        if let Some(more) = columns_of(&best, &lin.rc) {
+            d = d.append(&more);
+        }
+        out.push(best);
+    }
+    out
+}

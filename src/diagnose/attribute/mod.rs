@@ -1,0 +1,477 @@
+//! Attribution: which effect explains the gap, judged on withheld visits and calibrated by
+//! simulation.
+//!
+//! Every candidate effect is a family of shapes along its physical axis ([`super::shapes`]:
+//! step-out over f, possibly moving with the field; cohesion loss over z_m; drift over session
+//! time; formation over the time since a change) or, for the effects without an axis, the
+//! correction its parametric form makes (centroid offset at a few distances, camera offset).
+//! Beside them stands one pseudo-candidate, the *local anomaly*: the strongest small box of
+//! operating points, which no effect describes.
+//!
+//! A candidate's **gain** is the drop of the withheld sum of squares (grouped cross-validation
+//! by visit, everything refitted per fold together with the model's free parameters), halved,
+//! in units of the row noise, best over the candidate's variants (smoothness, field exponent).
+//! Its **null distribution** is that of the same statistic on logs simulated from the current
+//! model with the log's own design and noise structure ([`super::noise`]), each refitted
+//! exactly as the real one, variants and box search included. A candidate *passes* when its
+//! gain lies beyond its null (bootstrap p < alpha); the passing candidate with the largest gain
+//! is named. If that is the local anomaly, nothing more is named: the gap there is reported
+//! unexplained. Plausibility of the fitted parametric form and the share of each region's
+//! residual removed are reported as reasons, never as vetoes over strong evidence.
+//!
+//! Forward selection: the named effect joins the design, the gap tests ([`super::detect`])
+//! run again on what is left, and selection continues while a significant gap remains.
+//!
+//! Then each named effect's **form** is chosen: its library (parametric) form, fitted by the
+//! nonlinear fitter, is used where it does as well on withheld visits as the learned shape (at
+//! least 90 % of its gain); otherwise the learned shape goes into the model as a learned
+//! effect term (heights at knots with their SDs).
+//!
+//! The parts: `world.rs` (the linear world of one log: the baseline's directions and the rows'
+//! context), `variants.rs` (the candidates and their variants), `score.rs` (a round's gains
+//! and their simulated nulls), `forms.rs` (library form or learned shape for each named
+//! effect).
+
+mod forms;
+mod score;
+mod variants;
+mod world;
+
+use forms::*;
+use score::*;
+use variants::*;
+pub use world::Linear;
+use world::*;
+
+use super::candidates::{self, Augmented, Ctx};
+use super::data::Dataset;
+use super::detect::{self, Setting};
+use super::fitter::{self, FitResult};
+use super::gap::{self, Region};
+use super::linear::{self, Design, Monotone, Solver};
+use super::noise::{self, Noise};
+use super::shapes::{self, Axis, Family, Mode, RowCtx, Shape};
+use crate::identify::params::{self, Free};
+use magswarm_model::effects::EffectKind;
+use nalgebra::{DMatrix, DVector};
+use rand::{seq::SliceRandom, SeedableRng};
+use rayon::prelude::*;
+
+/// Smallest withheld gain that names an effect, beyond its null: a log-likelihood ratio of
+/// e^2 (about 7), "positive evidence" on Kass and Raftery's scale. A candidate with a narrow
+/// null (one column) can lie beyond it with a gain no user would notice.
+pub const MIN_GAIN: f64 = 2.0;
+
+/// Ridge on the baseline's free-parameter directions (unit-norm columns).
+const JAC_RIDGE: f64 = 1e-2;
+
+/// Predicted radii (r1, r2) at every row \[mm\].
+pub type Preds = Vec<[f64; 2]>;
+
+/// Settings.
+#[derive(Debug, Clone, Copy)]
+pub struct Settings {
+    /// Folds.
+    pub folds: usize,
+    /// Significance of a candidate's gain.
+    pub alpha: f64,
+    /// Most effects accepted.
+    pub max_effects: usize,
+    /// Seed of the fold assignment and the simulations.
+    pub seed: u64,
+    /// Bootstrap replicates.
+    pub boot: usize,
+}
+
+/// A model fitted on all rows and cross-validated.
+#[derive(Debug, Clone)]
+pub struct Evaluated {
+    /// Effects (names, in order of addition).
+    pub names: Vec<String>,
+    /// Fit on all rows.
+    pub full: FitResult,
+    /// Predictions of the full fit at every row.
+    pub pred: Vec<[f64; 2]>,
+    /// Withheld predictions (each row by the fit that did not see its visit).
+    pub cv: Vec<[f64; 2]>,
+}
+
+/// How a named effect enters the model.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Form {
+    /// Its library (parametric) form.
+    Parametric,
+    /// A learned shape along its axis.
+    Learned(Shape),
+}
+
+/// The evaluation of one candidate in one round.
+#[derive(Debug, Clone)]
+pub struct CandidateEval {
+    /// Name.
+    pub name: String,
+    /// The effect.
+    pub kind: EffectKind,
+    /// Round (1 = on top of the baseline).
+    pub round: usize,
+    /// The model with it (for a named effect: in the form chosen).
+    pub model: Evaluated,
+    /// Withheld gain over the model of the round [row-noise units].
+    pub gain: f64,
+    /// The null distribution's (1 - alpha) quantile of the gain.
+    pub penalty: f64,
+    /// Bootstrap p-value of the gain.
+    pub p: f64,
+    /// The variant that gave the gain.
+    pub variant: String,
+    /// Reasons for doubt about the fitted parametric form (reported, not a veto).
+    pub implausible: Vec<String>,
+    /// Largest share of a significant region's residual it removes, and that region's index.
+    pub signature: (f64, Option<usize>),
+    /// With it, the gap tests find no significant gap left.
+    pub closes_gap: bool,
+    /// Gain beyond its null.
+    pub passed: bool,
+    /// Named.
+    pub accepted: bool,
+    /// Candidates whose gain comes within 80 % of this one's (close alternatives).
+    pub ambiguous_with: Vec<String>,
+    /// The form it enters the model in (named effects; the library form otherwise).
+    pub form: Form,
+    /// Gains of the library form and of the learned shape when the form was chosen.
+    pub form_gains: Option<(f64, f64)>,
+    /// Predictions at every row of the baseline with the library form, and with the learned
+    /// shape (named effects): what each adds to the baseline, for the report's figure.
+    pub curves: Option<(Preds, Preds)>,
+}
+
+/// Everything attribution produced.
+#[derive(Debug, Clone)]
+pub struct Attribution {
+    /// The baseline, evaluated the same way.
+    pub baseline: Evaluated,
+    /// The final model (baseline plus accepted effects).
+    pub augmented: Evaluated,
+    /// Accepted effects, most important first.
+    pub accepted: Vec<String>,
+    /// Latest evaluation of every candidate.
+    pub evals: Vec<CandidateEval>,
+    /// Pairs that came close (reported; the larger gain is named).
+    pub ambiguous: Vec<(String, String)>,
+    /// Fold of each visit.
+    pub fold_of_visit: Vec<usize>,
+    /// The gap tests after each accepted effect.
+    pub rounds: Vec<detect::Detection>,
+    /// The local anomaly beat every effect in the last round: the gap left is unexplained.
+    pub anomaly_won: bool,
+    /// The local anomaly's score in the last round: (gain, null quantile, p-value).
+    pub anomaly: Option<(f64, f64, f64)>,
+}
+
+/// Fold of each visit: shuffled, then dealt round-robin.
+pub fn folds(nv: usize, k: usize, seed: u64) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..nv).collect();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(seed ^ 0xF01D);
+    idx.shuffle(&mut rng);
+    let mut f = vec![0; nv];
+    for (r, &v) in idx.iter().enumerate() {
+        f[v] = r % k.max(1);
+    }
+    f
+}
+
+/// The detection setting on design `d`.
+fn setting<'b>(lin: &'b Linear, d: &'b Design, st: &Settings) -> Setting<'b> {
+    Setting {
+        ds: lin.ds,
+        rc: &lin.rc,
+        y: &lin.y,
+        base: d,
+        noise: &lin.noise,
+        boot: st.boot,
+        seed: st.seed ^ 0xD7EC,
+    }
+}
+
+fn residuals(ds: &Dataset, pred: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    ds.rows
+        .iter()
+        .zip(pred)
+        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
+        .collect()
+}
+
+/// Run the attribution.
+#[allow(clippy::too_many_arguments)]
+pub fn attribute(
+    lin: &Linear,
+    fold_of_visit: &[usize],
+    regions: &[Region],
+    base_map: &[[f64; 2]],
+    st: Settings,
+    progress: &indicatif::ProgressBar,
+) -> Attribution {
+    let (ds, ctx) = (lin.ds, lin.ctx);
+    let eval_of = |d: &Design, names: Vec<String>, aug: Augmented| -> Evaluated {
+        let (pred, cv) = lin
+            .evaluate(d)
+            .unwrap_or_else(|| (lin.p0.clone(), lin.p0.clone()));
+        Evaluated {
+            names,
+            full: FitResult {
+                aug,
+                cost: 0.0,
+                at_bound: Vec::new(),
+            },
+            pred,
+            cv,
+        }
+    };
+    // Reported models are evaluated in the directions their model files can carry.
+    let base_aug = linear_model(lin, &[]).unwrap_or_else(|| lin.base.clone());
+    let base = eval_of(&lin.model_jac(), Vec::new(), base_aug);
+    progress.inc(1);
+    let mut out = Attribution {
+        baseline: base.clone(),
+        augmented: base.clone(),
+        accepted: Vec::new(),
+        evals: Vec::new(),
+        ambiguous: Vec::new(),
+        fold_of_visit: fold_of_visit.to_vec(),
+        rounds: Vec::new(),
+        anomaly_won: false,
+        anomaly: None,
+    };
+    if regions.is_empty() {
+        return out;
+    }
+    let cands = variants(lin);
+    let mut cur = lin.jac.clone();
+    // Named effects: (name, the variants that entered the design).
+    let mut named: Vec<(EffectKind, Vec<Variant>)> = Vec::new();
+    let mut rounds_run = 0;
+    // Rounds that only refine a named effect do not count toward `max_effects`, but at most
+    // two of them run.
+    while out.accepted.len() < st.max_effects && rounds_run < st.max_effects + 2 {
+        rounds_run += 1;
+        let round = rounds_run;
+        if round > 1 {
+            let det = detect::detect(&setting(lin, &cur, &st), st.alpha);
+            let go = det.as_ref().map(|d| d.significant).unwrap_or(false);
+            if let Some(d) = det {
+                out.rounds.push(d);
+            }
+            if !go {
+                break;
+            }
+        }
+        // Effects not named yet, and the named ones again: what a named effect's shape leaves
+        // of its own structure is more of the same effect (a refinement), not a new one.
+        let todo: Vec<(Cand, Vec<Variant>)> = cands.clone();
+        let Some(scored) = score_round(lin, &cur, &todo, &st, round) else {
+            break;
+        };
+        progress.inc(1);
+        let is_named = |c: Cand| named.iter().any(|(a, _)| Some(*a) == c.kind());
+        let mut order: Vec<usize> = (0..scored.len())
+            .filter(|&i| scored[i].p < st.alpha && scored[i].gain >= MIN_GAIN)
+            .collect();
+        // The candidate furthest beyond its own null: its gain less the null's (1 - alpha)
+        // quantile. A flexible candidate's null is wider, and the local anomaly's includes its
+        // search over boxes: the excess is a calibrated penalty for flexibility.
+        let excess = |s: &Scored| s.gain - quantile(&s.null, 1.0 - st.alpha);
+        order.sort_by(|&a, &b| excess(&scored[b]).total_cmp(&excess(&scored[a])));
+        // Candidates within 5 % of the top excess are tied: the one least likely under its own
+        // null (smallest bootstrap p) goes first (a constrained form that fits as well as a
+        // flexible one is the more specific description).
+        if let Some(&top) = order.first() {
+            let tied = order
+                .iter()
+                .take_while(|&&i| excess(&scored[i]) >= 0.95 * excess(&scored[top]))
+                .count();
+            order[..tied].sort_by(|&a, &b| scored[a].p.total_cmp(&scored[b].p));
+        }
+        let mut best = order.first().copied();
+        // A local anomaly ahead of every effect: an effect that passed still names the gap if
+        // its excess comes within 60 % of the anomaly's, if it leaves no box beyond the
+        // anomaly's null (it explains the box), or if it keeps a substantial gain beyond its
+        // null on top of the anomaly's box (the effect is there, the box took its strongest
+        // part); otherwise the gap is a local one no effect describes.
+        if let Some(b) = best.filter(|&b| scored[b].name == Cand::Anomaly) {
+            let boxed = scored[b]
+                .best
+                .as_ref()
+                .and_then(|v| columns_of(v, &lin.rc))
+                .map(|more| cur.append(&more));
+            let rescued = order.iter().copied().skip(1).find(|&e| {
+                let (Some(d), Some(more)) = (
+                    boxed.as_ref(),
+                    scored[e].best.as_ref().and_then(|v| columns_of(v, &lin.rc)),
+                ) else {
+                    return false;
+                };
+                let (Some(s0), Some(s1)) = (
+                    Solver::new(d, &lin.fold_of_stacked, lin.k),
+                    Solver::new(&d.append(&more), &lin.fold_of_stacked, lin.k),
+                ) else {
+                    return false;
+                };
+                // Beyond its null, and by a margin that matters beside the anomaly's (a
+                // one-column candidate's narrow null is passed by a shift of hundredths of a
+                // millimetre).
+                let g = gain(&s0, &s1, &lin.y, [1.0, 1.0]);
+                let q = quantile(&scored[e].null, 1.0 - st.alpha);
+                g >= MIN_GAIN.max(q) && g - q >= 0.3 * excess(&scored[b])
+            });
+            // A near tie goes to the effect: a physical description that explains the box
+            // nearly as well is the better report (the leftover, if any, is tested next).
+            let close = order.iter().copied().skip(1).find(|&e| {
+                scored[e].name != Cand::Anomaly && excess(&scored[e]) >= 0.6 * excess(&scored[b])
+            });
+            // An effect that leaves no box beyond the anomaly's own null explains it: a band
+            // over every z_m takes a box of it along; a true local anomaly stays on top of
+            // any shape along one axis.
+            let q_box = quantile(&scored[b].null, 1.0 - st.alpha);
+            let explains = order.iter().copied().skip(1).find(|&e| {
+                scored[e].name != Cand::Anomaly
+                    && box_left(lin, &cur, scored[e].best.as_ref())
+                        .is_some_and(|g| g < q_box.max(MIN_GAIN))
+            });
+            if let Some(e) = close.or(explains).or(rescued) {
+                best = Some(e);
+            }
+        }
+        let winner = best.map(|b| scored[b].name);
+        let new_name = winner.filter(|w| *w != Cand::Anomaly && !is_named(*w));
+        for (i, s) in scored.iter().enumerate() {
+            if s.name == Cand::Anomaly {
+                out.anomaly = Some((s.gain, quantile(&s.null, 1.0 - st.alpha), s.p));
+            }
+            let Some(kind) = s.name.kind().filter(|_| !is_named(s.name)) else {
+                continue;
+            };
+            let accepted = Some(i) == best && new_name.is_some();
+            let close: Vec<String> = match best {
+                Some(b) if i == b => order
+                    .iter()
+                    .skip(1)
+                    .filter(|&&j| {
+                        scored[j].name != Cand::Anomaly
+                            && !is_named(scored[j].name)
+                            && excess(&scored[j]) >= 0.8 * excess(&scored[b])
+                    })
+                    .map(|&j| scored[j].name.name().to_string())
+                    .collect(),
+                _ => Vec::new(),
+            };
+            let e = CandidateEval {
+                name: kind.name().to_string(),
+                kind,
+                round,
+                model: base.clone(),
+                gain: s.gain,
+                penalty: quantile(&s.null, 1.0 - st.alpha),
+                p: s.p,
+                variant: s.variant.clone(),
+                implausible: Vec::new(),
+                signature: (0.0, None),
+                closes_gap: false,
+                passed: s.p < st.alpha && s.gain >= MIN_GAIN,
+                accepted,
+                ambiguous_with: close,
+                form: Form::Parametric,
+                form_gains: None,
+                curves: None,
+            };
+            if let Some(old) = out.evals.iter_mut().find(|x| x.name == e.name) {
+                if !old.accepted {
+                    *old = e;
+                }
+            } else {
+                out.evals.push(e);
+            }
+        }
+        let Some(b) = best else { break };
+        if scored[b].name == Cand::Anomaly {
+            out.anomaly_won = true;
+            break;
+        }
+        let v = scored[b].best.clone().expect("a variant");
+        if let Some(more) = columns_of(&v, &lin.rc) {
+            cur = cur.append(&more);
+        }
+        let Some(kind) = scored[b].name.kind() else {
+            break;
+        };
+        if let Some(n) = named.iter_mut().find(|(a, _)| *a == kind) {
+            // A refinement: the named effect's shape gains a term.
+            n.1.push(v);
+            continue;
+        }
+        for a in out
+            .evals
+            .iter()
+            .find(|e| e.kind == kind)
+            .map(|e| e.ambiguous_with.clone())
+            .unwrap_or_default()
+        {
+            out.ambiguous.push((kind.name().to_string(), a));
+        }
+        named.push((kind, vec![v]));
+        out.accepted.push(kind.name().to_string());
+    }
+    if named.is_empty() {
+        return out;
+    }
+    // The form of each named effect, and the final model.
+    let (aug, design, learned) = choose_forms(lin, &named, &mut out, st, progress);
+    // Detection on what the final model leaves (the closing round).
+    if out.rounds.len() < named.len() {
+        if let Some(d) = detect::detect(&setting(lin, &design, &st), st.alpha) {
+            out.rounds.push(d);
+        }
+    }
+    let left_significant = out.rounds.last().map(|d| d.significant).unwrap_or(false);
+    let names = out.accepted.clone();
+    let mut ev = eval_of(&lin.model_design(&learned), names, aug.clone());
+    // In-sample predictions through the model itself (what `predict` and the FMU replay).
+    ev.pred = candidates::predict(&aug, ds);
+    // With a library form in the model, its withheld predictions come from nonlinear refits
+    // per fold (learned heights held), so that its location is never fitted on the visits it
+    // predicts.
+    if !aug.effects.is_empty() {
+        ev.cv = library_cv(lin, &aug);
+    }
+    out.augmented = ev;
+    // Reasons, for the table: the library form's plausibility, regions' residual removed.
+    let res_base = residuals(ds, &base.pred);
+    let res_aug = residuals(ds, &out.augmented.pred);
+    for e in out.evals.iter_mut().filter(|e| e.accepted) {
+        e.model = out.augmented.clone();
+        e.closes_gap = !left_significant;
+        e.implausible = e.kind.implausible(&aug.synced(), ctx);
+        for (ri, r) in regions.iter().enumerate() {
+            let before = gap::region_mean(ds, &res_base, base_map, r);
+            let after = gap::region_mean(ds, &res_aug, base_map, r);
+            if before.abs() > 1e-12 {
+                let share = 1.0 - after.abs() / before.abs();
+                if share > e.signature.0 {
+                    e.signature = (share, Some(ri));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The withheld gain of the strongest local box on top of design `cur` with variant `v`: what
+/// of a local anomaly that effect leaves.
+fn box_left(lin: &Linear, cur: &Design, v: Option<&Variant>) -> Option<f64> {
+    let d = cur.append(&columns_of(v?, &lin.rc)?);
+    let one = vec![0usize; lin.y.len()];
+    let e0 = Solver::new(&d, &one, 1)?.residual(&lin.y);
+    let (bc, bp) = anomaly_columns(lin, &e0);
+    let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
+    let s1 = Solver::new(&d.extend(&bc, &bp), &lin.fold_of_stacked, lin.k)?;
+    Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+}

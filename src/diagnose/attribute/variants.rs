@@ -1,0 +1,224 @@
+//! The candidates and their variants: a learned shape along each effect's axis, the library
+//! form's correction where an effect has no axis, and the local anomaly.
+
+use super::*;
+
+/// A candidate: an effect, or the local anomaly no effect describes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Cand {
+    /// An effect.
+    Effect(EffectKind),
+    /// The strongest small box of operating points.
+    Anomaly,
+}
+
+impl Cand {
+    /// Name in tables and reports.
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            Cand::Effect(k) => k.name(),
+            Cand::Anomaly => "local_anomaly",
+        }
+    }
+
+    /// The effect, if one.
+    pub(super) fn kind(self) -> Option<EffectKind> {
+        match self {
+            Cand::Effect(k) => Some(k),
+            Cand::Anomaly => None,
+        }
+    }
+}
+
+/// One variant of a candidate: its columns (and penalty), or a box found per log.
+#[derive(Debug, Clone)]
+pub(super) enum Variant {
+    Shape(Family),
+    Column(&'static str, DMatrix<f64>),
+    Columns(&'static str, DMatrix<f64>, DMatrix<f64>),
+    Anomaly,
+}
+
+/// The candidates and their variants.
+pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
+    let ds = lin.ds;
+    let (zs, fs) = ds.levels();
+    let rc = &lin.rc;
+    let smooths = [0.01, 0.1, 1.0];
+    let mut out: Vec<(Cand, Vec<Variant>)> = Vec::new();
+    // Effects on the steady map act in mm or in proportion to the radius (a change of Phi
+    // (6) or of the stiffness scales the radii): both modes are variants. A step-out is above
+    // all a deficit of the swarm's rotation rate, acting through the map's own sensitivity to
+    // the drive (one deficit for both radii).
+    let mut v = Vec::new();
+    // Every variant widens the candidate's null: the phase lag's forms are searched at two
+    // smoothings only, and the onset that moves with the field (nu = 1, the step-out's
+    // physics) only as a rate deficit; bands and roll-offs in mm or in proportion to the
+    // radius run over the drive frequency itself.
+    for (nu, modes) in [
+        (0.0, &[Mode::Rate, Mode::Add, Mode::Relative][..]),
+        (1.0, &[Mode::Rate][..]),
+    ] {
+        let xs = rc.xs(Axis::F { nu });
+        for &mode in modes {
+            for s in [0.1, 1.0] {
+                let knots = shapes::knots_of(&xs, fs.len().clamp(2, 10));
+                v.push(Variant::Shape(Family::new(Axis::F { nu }, mode, knots, s)));
+            }
+        }
+    }
+    out.push((Cand::Effect(EffectKind::PhaseLag), v));
+    let mut v = Vec::new();
+    for mode in [Mode::Add, Mode::Relative] {
+        for s in smooths {
+            v.push(Variant::Shape(Family::new(
+                Axis::Z,
+                mode,
+                shapes::knots_of(&zs, 8),
+                s,
+            )));
+        }
+    }
+    out.push((Cand::Effect(EffectKind::CohesionLoss), v));
+    if let Some(f) = detect::since_family(rc, 0.1) {
+        out.push((
+            Cand::Effect(EffectKind::FormationLag),
+            smooths
+                .iter()
+                .map(|&s| {
+                    Variant::Shape(Family {
+                        smooth: s,
+                        ..f.clone()
+                    })
+                })
+                .collect(),
+        ));
+    }
+    out.push((
+        Cand::Effect(EffectKind::ParticleDrift),
+        smooths
+            .iter()
+            .map(|&s| {
+                Variant::Shape(Family {
+                    monotone: Some(Monotone::Either),
+                    ..Family::new(Axis::T, Mode::Relative, shapes::knots_of(&rc.t, 8), s)
+                })
+            })
+            .collect(),
+    ));
+    // Centroid offset: off the field's axis the swarm sees another curvature along its two
+    // principal directions, so its aspect changes with depth (stretched along one, squeezed
+    // along the other; a learned shape over z_m, one value for both radii), and the
+    // correction its library form makes at a few distances (amplitude free), each a column.
+    let mut cv = Vec::new();
+    for s in [0.1, 1.0] {
+        cv.push(Variant::Shape(Family::new(
+            Axis::Z,
+            Mode::Aspect,
+            shapes::knots_of(&zs, 8),
+            s,
+        )));
+    }
+    for o in [3.0, 8.0, 16.0] {
+        let mut a = lin.base.clone();
+        a.effects.push((EffectKind::CentroidOffset, vec![o]));
+        let p = candidates::predict(&a, ds);
+        let col = DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| {
+            let (i, ax) = (s / 2, s % 2);
+            let d = rc.w[ax] * (p[i][ax] - lin.p0[i][ax]);
+            if d.is_finite() {
+                d
+            } else {
+                0.0
+            }
+        });
+        if col.norm() > 1e-9 {
+            // The same correction with an amplitude that may vary over z_m (an axis that is
+            // not parallel to the field's: the swarm further off it at some depths than at
+            // others), in the library form's own ratio of r1 to r2.
+            let kz = shapes::knots_of(&rc.z, 6);
+            if kz.len() >= 2 {
+                let k = kz.len();
+                let mut a = DMatrix::zeros(2 * ds.rows.len(), k);
+                for i in 0..ds.rows.len() {
+                    for (j, wt) in shapes::hat(&kz, rc.z[i]) {
+                        for ax in 0..2 {
+                            a[(2 * i + ax, j)] = wt * col[(2 * i + ax, 0)];
+                        }
+                    }
+                }
+                let info = (0..k).map(|c| a.column(c).norm_squared()).sum::<f64>() / k as f64;
+                let info = info.max(1e-12);
+                let pen = crate::diagnose::linear::roughness(k, 1, 0.3 * info, 1e-3 * info);
+                cv.push(Variant::Columns("offset, amplitude over z_m", a, pen));
+            }
+            cv.push(Variant::Column("offset", col));
+        }
+    }
+    if !cv.is_empty() {
+        out.push((Cand::Effect(EffectKind::CentroidOffset), cv));
+    }
+    out.push((
+        Cand::Effect(EffectKind::CameraBias),
+        vec![Variant::Column(
+            "offset",
+            DMatrix::from_fn(2 * ds.rows.len(), 1, |s, _| rc.w[s % 2]),
+        )],
+    ));
+    out.push((Cand::Anomaly, vec![Variant::Anomaly]));
+    out.retain(|(_, v)| {
+        v.iter()
+            .all(|x| !matches!(x, Variant::Shape(f) if f.knots.len() < 2))
+    });
+    out
+}
+
+/// Columns, penalty and monotone blocks of a fixed variant.
+pub(super) fn columns_of(v: &Variant, rc: &RowCtx) -> Option<Design> {
+    match v {
+        Variant::Shape(f) => Some(shapes::design(f, rc)),
+        Variant::Column(_, c) => Some(Design::new(
+            c.clone(),
+            DMatrix::identity(c.ncols(), c.ncols()) * 1e-8,
+        )),
+        Variant::Columns(_, c, p) => Some(Design::new(c.clone(), p.clone())),
+        Variant::Anomaly => None,
+    }
+}
+
+/// The indicator columns (one per axis) of the strongest small box of the in-sample
+/// residual `e0` (weighted, stacked).
+pub(super) fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
+    let ds = lin.ds;
+    let r0 = detect::unweight(e0, lin.rc.w);
+    let sd = noise::estimate(ds, &r0)
+        .map(|n| n.visit)
+        .unwrap_or(lin.noise.visit);
+    let (_, _, zr, fr) = detect::box_scan(ds, &r0, sd, true, false);
+    let (cell, _, _) = noise::cells(ds);
+    let n = ds.rows.len();
+    let mut a = DMatrix::zeros(2 * n, 2);
+    for (i, r) in ds.rows.iter().enumerate() {
+        let (zi, fi) = cell[r.visit];
+        if zi >= zr.0 && zi <= zr.1 && fi >= fr.0 && fi <= fr.1 {
+            for ax in 0..2 {
+                a[(2 * i + ax, ax)] = lin.rc.w[ax];
+            }
+        }
+    }
+    (a, DMatrix::identity(2, 2) * 1e-8)
+}
+
+pub(super) fn describe(v: &Variant) -> String {
+    match v {
+        Variant::Shape(f) => format!(
+            "learned shape over {} ({} knots, smoothing {})",
+            f.axis.label(),
+            f.knots.len(),
+            f.smooth
+        ),
+        Variant::Column(n, _) => format!("library form's {n} (amplitude free)"),
+        Variant::Columns(n, ..) => format!("library form's {n}"),
+        Variant::Anomaly => "strongest small box of operating points".into(),
+    }
+}
