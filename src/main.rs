@@ -1,9 +1,26 @@
 //! `magswarm`: the command-line face of the library. The arguments of every command and the
-//! dispatch live in `magswarm::cli`; this file only parses and exits with its code.
+//! dispatch live in `magswarm::cli`; this file installs the logger, parses and exits with
+//! its code.
+
+use std::io::Write;
 
 use clap::Parser;
 
 fn main() {
+    // The library crates report through `log` (warnings about skipped rows, what packaging
+    // builds, ...); print them on stderr as the program's own messages. Level from
+    // $MAGSWARM_LOG (error, warn, info (default), debug, trace).
+    env_logger::Builder::new()
+        .filter_level(log::LevelFilter::Info)
+        .parse_env(env_logger::Env::new().filter("MAGSWARM_LOG"))
+        .format(|buf, r| {
+            let level = match r.level() {
+                log::Level::Warn => "warning".to_string(),
+                l => l.as_str().to_ascii_lowercase(),
+            };
+            writeln!(buf, "magswarm: {level}: {}", r.args())
+        })
+        .init();
     let cli = magswarm::cli::Cli::parse();
     std::process::exit(magswarm::cli::main(&cli));
 }

@@ -111,41 +111,21 @@ fn load(path: &Path) -> Result<RigConfig, String> {
     Ok(c)
 }
 
-/// The library reports through `log`; the program prints it on stderr (level from
-/// `$MAGSWARM_LOG`: error, warn, info (default), debug, trace).
-struct StderrLog;
-
-impl log::Log for StderrLog {
-    fn enabled(&self, m: &log::Metadata<'_>) -> bool {
-        m.level() <= log::max_level()
-    }
-
-    fn log(&self, r: &log::Record<'_>) {
-        if self.enabled(r.metadata()) {
-            let level = match r.level() {
-                log::Level::Error => "error",
-                log::Level::Warn => "warning",
-                log::Level::Info => "info",
-                log::Level::Debug => "debug",
-                log::Level::Trace => "trace",
-            };
-            eprintln!("magswarm-bridge: {level}: {}", r.args());
-        }
-    }
-
-    fn flush(&self) {}
-}
-
-static LOGGER: StderrLog = StderrLog;
-
 fn main() -> ExitCode {
-    let _ = log::set_logger(&LOGGER);
-    log::set_max_level(
-        std::env::var("MAGSWARM_LOG")
-            .ok()
-            .and_then(|l| l.parse().ok())
-            .unwrap_or(log::LevelFilter::Info),
-    );
+    // The library reports through `log`; the program prints it on stderr (level from
+    // $MAGSWARM_LOG: error, warn, info (default), debug, trace).
+    env_logger::Builder::new()
+        .filter_level(log::LevelFilter::Info)
+        .parse_env(env_logger::Env::new().filter("MAGSWARM_LOG"))
+        .format(|buf, r| {
+            use std::io::Write;
+            let level = match r.level() {
+                log::Level::Warn => "warning".to_string(),
+                l => l.as_str().to_ascii_lowercase(),
+            };
+            writeln!(buf, "magswarm-bridge: {level}: {}", r.args())
+        })
+        .init();
     let cli = Cli::parse();
     match cli.cmd {
         Cmd::Run {
