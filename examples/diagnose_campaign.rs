@@ -74,10 +74,7 @@ fn main() -> Result<()> {
     );
     let log = magswarm::log::Log::read(&tp)?;
     let withheld = magswarm::log::Log::read(&wp)?;
-    let cfg = diagnose::Config {
-        progress: true,
-        ..diagnose::Config::default()
-    };
+    let cfg = diagnose::Config::default();
     let d = diagnose::diagnose(
         &log,
         Some(&withheld),

@@ -1,8 +1,8 @@
 //! magswarm: a reduced-order model of magnetic microparticle swarms as software.
 //!
-//! This package is the `magswarm` program ([`cli`]: argument parsing and the calls into the
-//! library crates) and a thin facade that re-exports the library crates at their module paths,
-//! one job each:
+//! This package is the `magswarm` program (`src/main.rs` and `src/cli/`: argument parsing and
+//! the calls into the library crates; nothing in a library sees its argument types) and a thin
+//! facade that re-exports the library crates at their module paths, one job each:
 //!
 //! - [`model`] (`magswarm-model`): the physics, effects, model file and parameter registry;
 //! - [`control`] (`magswarm-control`): the plant trait, the closed loop, the PID;
@@ -19,8 +19,11 @@
 //!   and 3.0 shells of `magswarm-fmi`.
 //!
 //! - [`packaging`] (`magswarm-packaging`): what goes into the `.fmu` archives.
+//! - [`diagnose`] (`magswarm-diagnose`): the sim-to-real gap report;
+//! - [`lab`] (`magswarm-lab`): the virtual lab, synthetic logs with unmodelled effects.
 //!
-//! The modules still in this package are `diagnose`, `lab`, `perf` and `outputs`.
+//! The one module of this package is [`perf`], the harness the benchmarks and `perf_table`
+//! share.
 
 pub use magswarm_control as control;
 pub use magswarm_fit::{lm, optim};
@@ -34,12 +37,10 @@ pub use magswarm_report as report;
 pub use magswarm_report::plot;
 pub use magswarm_sweep as sweep;
 
-pub mod cli;
 /// The importer side (crate `magswarm-cosim`): run packaged FMUs as external tools do.
 pub use magswarm_cosim as cosim;
-pub mod diagnose;
-pub mod lab;
-pub mod outputs;
+pub use magswarm_diagnose as diagnose;
+pub use magswarm_lab as lab;
 /// The `.fmu` archives (crate `magswarm-packaging`).
 pub use magswarm_packaging as packaging;
 pub mod perf;

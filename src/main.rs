@@ -1,6 +1,9 @@
-//! `magswarm`: the command-line face of the library. The arguments of every command and the
-//! dispatch live in `magswarm::cli`; this file installs the logger, parses and exits with
-//! its code.
+//! `magswarm`: the command-line face of the library crates. The arguments of every command and
+//! the dispatch live in [`cli`] (binary-only: no library sees a clap type); this file installs
+//! the logger, parses and exits with its code.
+
+mod cli;
+mod outputs;
 
 use std::io::Write;
 
@@ -21,6 +24,6 @@ fn main() {
             writeln!(buf, "magswarm: {level}: {}", r.args())
         })
         .init();
-    let cli = magswarm::cli::Cli::parse();
-    std::process::exit(magswarm::cli::main(&cli));
+    let cli = cli::Cli::parse();
+    std::process::exit(cli::main(&cli));
 }

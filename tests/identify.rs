@@ -3,7 +3,6 @@
 mod common;
 
 use common::Spec;
-use magswarm::cli::identify::{run as run_identify, IdentifyArgs};
 use magswarm::identify::{self, params, Collinear, Config};
 use magswarm::log::Log;
 use magswarm::model::Model;
@@ -225,26 +224,66 @@ fn write_log(dir: &std::path::Path, name: &str, text: &str) -> std::path::PathBu
     p
 }
 
+/// The flags of `magswarm identify` these tests vary (the rest at their defaults, with fewer
+/// starts and bootstrap replicates than a user would run, for speed).
+struct IdentifyArgs {
+    log: Vec<std::path::PathBuf>,
+    out: std::path::PathBuf,
+    report: Option<std::path::PathBuf>,
+    free: Option<Vec<String>>,
+    fix: Vec<String>,
+    bound: Vec<String>,
+    settle_s: Option<f64>,
+    lenient: bool,
+}
+
 fn args(logs: Vec<std::path::PathBuf>, out: std::path::PathBuf) -> IdentifyArgs {
     IdentifyArgs {
         log: logs,
         out,
         report: None,
-        model: None,
         free: None,
         fix: vec![],
         bound: vec![],
         settle_s: None,
-        settle_factor: 5.0,
-        starts: 2,
-        bootstrap: 20,
-        seed: 1,
-        collinear: "fix".into(),
-        cond_max: 1e8,
-        ridge_lambda: 1.0,
-        no_dynamics: false,
-        withhold_every: 0,
         lenient: false,
+    }
+}
+
+/// Run the `magswarm identify` of this build as a user does; its error message on failure.
+fn run_identify(a: &IdentifyArgs) -> Result<(), String> {
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_magswarm"));
+    c.arg("identify");
+    for l in &a.log {
+        c.arg("--log").arg(l);
+    }
+    c.arg("--out").arg(&a.out);
+    c.args(["--starts", "2", "--bootstrap", "20", "--seed", "1"]);
+    if let Some(r) = &a.report {
+        c.arg("--report").arg(r);
+    }
+    if let Some(f) = &a.free {
+        c.arg("--free").arg(f.join(","));
+    }
+    if !a.fix.is_empty() {
+        c.arg("--fix").arg(a.fix.join(","));
+    }
+    for b in &a.bound {
+        c.arg("--bound").arg(b);
+    }
+    if let Some(s) = a.settle_s {
+        c.arg("--settle-s").arg(s.to_string());
+    }
+    if a.lenient {
+        c.arg("--lenient");
+    }
+    let o = c
+        .output()
+        .map_err(|e| format!("cannot run magswarm: {e}"))?;
+    if o.status.success() {
+        Ok(())
+    } else {
+        Err(String::from_utf8_lossy(&o.stderr).into_owned())
     }
 }
 
@@ -299,7 +338,7 @@ fn err_of(text: &str, a: impl FnOnce(&mut IdentifyArgs)) -> String {
     let p = write_log(dir.path(), "in.csv", text);
     let mut ar = args(vec![p], dir.path().join("m.json"));
     a(&mut ar);
-    format!("{:#}", run_identify(&ar).unwrap_err())
+    run_identify(&ar).unwrap_err()
 }
 
 fn grid_text(zs: &[f64], fs: &[f64], reps: usize) -> String {

@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 
-use crate::control::{inverse, linearize};
-use crate::model::Model;
+use magswarm::control::{inverse, linearize};
+use magswarm::model::Model;
 
 /// `--model`, or the paper model.
 fn load_model(path: &Option<PathBuf>) -> anyhow::Result<Model> {

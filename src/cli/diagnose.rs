@@ -1,4 +1,4 @@
-//! Arguments of `magswarm diagnose` and the command itself over the library (`crate::diagnose`).
+//! Arguments of `magswarm diagnose` and the command itself over the library (`magswarm::diagnose`).
 
 use std::path::PathBuf;
 
@@ -37,24 +37,23 @@ pub struct DiagnoseArgs {
 
 impl DiagnoseArgs {
     /// The library's options.
-    pub fn config(&self) -> anyhow::Result<crate::diagnose::Config> {
+    pub fn config(&self) -> anyhow::Result<magswarm::diagnose::Config> {
         if !(self.alpha > 0.0 && self.alpha < 0.5) {
             anyhow::bail!("--alpha {}: must lie in (0, 0.5)", self.alpha);
         }
-        Ok(crate::diagnose::Config {
+        Ok(magswarm::diagnose::Config {
             alpha: self.alpha,
             folds: self.folds.max(2),
             boot: self.bootstrap.max(19),
             seed: self.seed,
-            progress: true,
-            ..crate::diagnose::Config::default()
+            ..magswarm::diagnose::Config::default()
         })
     }
 }
 
 /// Run `magswarm diagnose`: read the logs, diagnose, write the report, print its summary.
 pub fn run(a: &DiagnoseArgs) -> anyhow::Result<()> {
-    use crate::log::{Log, ReadOptions};
+    use magswarm::log::{Log, ReadOptions};
     use magswarm_model::Model;
     let cfg = a.config()?;
     let prior = Model::load_or_paper(a.model.as_deref())?;
@@ -67,9 +66,15 @@ pub fn run(a: &DiagnoseArgs) -> anyhow::Result<()> {
         Some(p) => Some(Log::read_with(p, opts)?),
         None => None,
     };
-    let d = crate::diagnose::diagnose(&log, w.as_ref(), &prior, &cfg)?;
-    crate::diagnose::report::write(&d, &a.out)?;
-    eprint!("{}", crate::diagnose::report::summary(&d));
+    let d = magswarm::diagnose::diagnose_with_progress(
+        &log,
+        w.as_ref(),
+        &prior,
+        &cfg,
+        &super::progress::Bar::new("diagnose"),
+    )?;
+    magswarm::diagnose::report::write(&d, &a.out)?;
+    eprint!("{}", magswarm::diagnose::report::summary(&d));
     eprintln!(
         "diagnose: report written to {}",
         a.out.join("report.md").display()

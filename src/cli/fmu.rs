@@ -7,9 +7,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-use crate::control::PidConfig;
-use crate::model::Model;
-use crate::packaging::{locate_library, pid, plant, write_atomic, FmiVersion};
+use magswarm::control::PidConfig;
+use magswarm::model::Model;
+use magswarm::packaging::{locate_library, pid, plant, write_atomic, FmiVersion};
 
 /// Arguments of `magswarm fmu`.
 #[derive(Debug, clap::Args)]

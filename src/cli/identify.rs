@@ -1,14 +1,13 @@
 //! `magswarm identify`: its arguments, their library face ([`IdentifyArgs::config`]) and the
-//! run (read the logs, [`crate::identify::identify`], write the model and the report).
+//! run (read the logs, [`magswarm::identify::identify`], write the model and the report).
 
 use std::path::PathBuf;
 
-use crate::identify::data::SettleRule;
-use crate::identify::{self, params, Collinear, Config};
-use crate::log::{Log, ReadOptions};
-use crate::model::Model;
 use anyhow::{bail, Context, Result};
-use std::io::IsTerminal;
+use magswarm::identify::data::SettleRule;
+use magswarm::identify::{self, params, Collinear, Config};
+use magswarm::log::{Log, ReadOptions};
+use magswarm::model::Model;
 
 /// Arguments of `magswarm identify`.
 #[derive(Debug, Clone, clap::Args)]
@@ -130,40 +129,6 @@ impl IdentifyArgs {
     }
 }
 
-/// A progress bar on stderr, drawn only when stderr is a terminal.
-struct Bar(indicatif::ProgressBar);
-
-impl Bar {
-    fn new(msg: &str) -> Bar {
-        if !std::io::stderr().is_terminal() {
-            return Bar(indicatif::ProgressBar::hidden());
-        }
-        let pb = indicatif::ProgressBar::new(0);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                .progress_chars("=> "),
-        );
-        pb.set_message(msg.to_string());
-        Bar(pb)
-    }
-}
-
-impl identify::Progress for Bar {
-    fn start(&self, total: u64) {
-        self.0.set_length(total);
-    }
-    fn inc(&self, n: u64) {
-        self.0.inc(n);
-    }
-    fn add_total(&self, n: u64) {
-        self.0.inc_length(n);
-    }
-    fn finish(&self) {
-        self.0.finish_and_clear();
-    }
-}
-
 /// Run `magswarm identify`.
 pub fn run(a: &IdentifyArgs) -> Result<()> {
     let cfg = a.config()?;
@@ -176,13 +141,18 @@ pub fn run(a: &IdentifyArgs) -> Result<()> {
         }
         logs.push(l);
     }
-    let id = identify::identify_with_progress(&logs, &prior, &cfg, &Bar::new("identify"))?;
+    let id = identify::identify_with_progress(
+        &logs,
+        &prior,
+        &cfg,
+        &super::progress::Bar::new("identify"),
+    )?;
     id.model
         .save(&a.out)
         .with_context(|| format!("cannot save {}", a.out.display()))?;
-    eprint!("{}", crate::report::identify::summary(&id));
+    eprint!("{}", magswarm::report::identify::summary(&id));
     if let Some(dir) = &a.report {
-        crate::report::identify::write(&id, dir)?;
+        magswarm::report::identify::write(&id, dir)?;
         eprintln!(
             "identify: report written to {}",
             dir.join("report.md").display()

@@ -1,4 +1,4 @@
-//! Arguments of `magswarm lab` and the command itself over the library (`crate::lab`).
+//! Arguments of `magswarm lab` and the command itself over the library (`magswarm::lab`).
 
 use std::path::PathBuf;
 
@@ -63,7 +63,7 @@ pub struct LabArgs {
 
 impl LabArgs {
     /// The library's options: each `--effect NAME[=STRENGTH]` parsed (strength 1 by default).
-    pub fn options(&self) -> anyhow::Result<crate::lab::LabOptions> {
+    pub fn options(&self) -> anyhow::Result<magswarm::lab::LabOptions> {
         let mut effects = Vec::new();
         for e in &self.effects {
             let (name, strength) = match e.split_once('=') {
@@ -80,7 +80,7 @@ impl LabArgs {
             };
             effects.push((name.to_string(), strength));
         }
-        Ok(crate::lab::LabOptions {
+        Ok(magswarm::lab::LabOptions {
             truth: self.truth.clone(),
             scenario: self.scenario.clone(),
             protocol: self.protocol.clone(),
@@ -98,9 +98,9 @@ impl LabArgs {
 /// Run `magswarm lab`: resolve the scenario, generate the rows with a progress bar, write
 /// the log, say what was written.
 pub fn run(a: &LabArgs) -> anyhow::Result<()> {
-    use crate::log::{Layout, LogWriter};
     use anyhow::Context;
-    let sc = crate::lab::resolve(&a.options()?)?;
+    use magswarm::log::{Layout, LogWriter};
+    let sc = magswarm::lab::resolve(&a.options()?)?;
     if a.print_scenario {
         println!("{}", serde_json::to_string_pretty(&sc)?);
         return Ok(());
@@ -118,7 +118,7 @@ pub fn run(a: &LabArgs) -> anyhow::Result<()> {
         );
         pb
     };
-    let rows = crate::lab::generate(&model, &sc, a.seed, |done, total| {
+    let rows = magswarm::lab::generate(&model, &sc, a.seed, |done, total| {
         pb.set_length(total as u64);
         pb.set_position(done as u64);
     })?;

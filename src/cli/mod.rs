@@ -11,9 +11,10 @@ pub mod identify;
 mod lab;
 pub mod paper;
 pub mod predict;
+mod progress;
 pub mod sweep;
 
-pub use control::{InverseArgs, LinFormat, LinearizeArgs};
+pub use control::{InverseArgs, LinearizeArgs};
 pub use diagnose::DiagnoseArgs;
 pub use fmu::FmuArgs;
 pub use identify::IdentifyArgs;

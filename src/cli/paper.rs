@@ -1,11 +1,11 @@
-//! `magswarm paper`: its arguments and the run (the figures of [`crate::paper`], printed as a
-//! table or JSON, and the plots of [`crate::report::paper`]).
+//! `magswarm paper`: its arguments and the run (the figures of [`magswarm::paper`], printed as a
+//! table or JSON, and the plots of [`magswarm::report::paper`]).
 
 use std::path::PathBuf;
 
-use crate::model::Model;
-use crate::paper::{paper_figures, render_table};
 use anyhow::Result;
+use magswarm::model::Model;
+use magswarm::paper::{paper_figures, render_table};
 
 /// Arguments of `magswarm paper`.
 #[derive(Debug, clap::Args)]
@@ -31,7 +31,7 @@ pub fn run(a: &PaperArgs) -> Result<()> {
         print!("{}", render_table(&figures));
     }
     if let Some(dir) = &a.plots {
-        let files = crate::report::paper::write_plots(&model, &figures, dir)?;
+        let files = magswarm::report::paper::write_plots(&model, &figures, dir)?;
         if !a.json {
             println!("\nplots:");
             for f in files {

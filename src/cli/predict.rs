@@ -1,12 +1,12 @@
 //! `magswarm predict`: its arguments and the run (read the log, replay it with
-//! [`crate::predict::predict_log`], write the output log).
+//! [`magswarm::predict::predict_log`], write the output log).
 
 use std::path::PathBuf;
 
-use crate::log::{Log, LogWriter};
-use crate::model::Model;
-use crate::predict;
 use anyhow::{Context, Result};
+use magswarm::log::{Log, LogWriter};
+use magswarm::model::Model;
+use magswarm::predict;
 
 /// Arguments of `magswarm predict`.
 #[derive(Debug, clap::Args)]

@@ -1,10 +1,10 @@
-//! `magswarm sweep`: its arguments and the run (the study of [`crate::sweep`] with a progress
+//! `magswarm sweep`: its arguments and the run (the study of [`magswarm::sweep`] with a progress
 //! bar, the results CSV and a summary).
 
 use std::path::PathBuf;
 
-use crate::sweep::{load, write_csv, Sweep};
 use anyhow::{bail, Result};
+use magswarm::sweep::{load, write_csv, Sweep};
 
 /// `magswarm sweep`.
 #[derive(Debug, Clone, clap::Args)]

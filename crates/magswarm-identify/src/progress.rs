@@ -16,6 +16,10 @@ pub trait Progress: Sync {
     fn add_total(&self, n: u64) {
         let _ = n;
     }
+    /// A new stage of the work begins (a name a person reads: "baseline", "gap tests").
+    fn stage(&self, name: &str) {
+        let _ = name;
+    }
     /// The work is over.
     fn finish(&self) {}
 }

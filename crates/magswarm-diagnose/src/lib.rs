@@ -40,13 +40,12 @@ pub mod report;
 pub mod shapes;
 pub mod stats;
 
-use crate::identify::{self, data::SettleRule};
-use crate::log::Log;
 use candidates::{Augmented, Ctx};
 use data::{Dataset, PureError};
 pub use error::DiagnoseError;
+use magswarm_identify::{self as identify, data::SettleRule, Progress, Silent};
+use magswarm_log::Log;
 use magswarm_model::Model;
-use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
 /// Library face of the flags.
@@ -62,8 +61,6 @@ pub struct Config {
     pub max_effects: usize,
     /// Bootstrap replicates (simulated logs) that calibrate the gap tests and the acceptance.
     pub boot: usize,
-    /// Show progress on a terminal.
-    pub progress: bool,
 }
 
 impl Default for Config {
@@ -74,7 +71,6 @@ impl Default for Config {
             seed: 1,
             max_effects: 3,
             boot: 499,
-            progress: false,
         }
     }
 }
@@ -200,20 +196,6 @@ impl Diagnosis {
     }
 }
 
-fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
-    if show && std::io::stderr().is_terminal() {
-        let pb = indicatif::ProgressBar::new(len);
-        pb.set_style(
-            indicatif::ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} {elapsed}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-                .progress_chars("=> "),
-        );
-        pb
-    } else {
-        indicatif::ProgressBar::hidden()
-    }
-}
-
 /// Refuse a log that cannot support a diagnosis, naming what is missing.
 fn check_usable(ds: &Dataset, source: &str) -> Result<(), DiagnoseError> {
     let (zs, fs) = ds.levels();
@@ -246,6 +228,18 @@ pub fn diagnose(
     prior: &Model,
     cfg: &Config,
 ) -> Result<Diagnosis, DiagnoseError> {
+    diagnose_with_progress(log, withheld, prior, cfg, &Silent)
+}
+
+/// [`diagnose`], reporting its stages and steps to `pb` (the program draws them: a progress
+/// bar on a terminal).
+pub fn diagnose_with_progress(
+    log: &Log,
+    withheld: Option<&Log>,
+    prior: &Model,
+    cfg: &Config,
+    pb: &dyn Progress,
+) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
     if !log.has_radii() {
         return Err(DiagnoseError::NoRadii {
@@ -255,8 +249,8 @@ pub fn diagnose(
     for s in &log.skipped {
         log::warn!("{}: skipped {s}", log.source);
     }
-    let pb = progress_bar(cfg.progress, 3 + 1 + 6 + 5 + 4);
-    pb.set_message("baseline");
+    pb.start(3 + 1 + 6 + 5 + 4);
+    pb.stage("baseline");
     let icfg = identify::Config {
         starts: 4,
         bootstrap: 0,
@@ -312,7 +306,7 @@ pub fn diagnose(
         &fold_of_visit,
         k,
     );
-    pb.set_message("gap tests");
+    pb.stage("gap tests");
     let to_tests = |det: &detect::Detection, r: &[[f64; 2]]| -> gap::GapTests {
         let old = gap::tests(&ds, r, &pe, &base_map, n_free, cfg.alpha, 0, cfg.seed);
         gap::GapTests::from_detection(old, det)
@@ -339,7 +333,7 @@ pub fn diagnose(
         Vec::new()
     };
     pb.inc(2);
-    pb.set_message("candidates");
+    pb.stage("candidates");
     let attr = attribute::attribute(
         &lin,
         &fold_of_visit,
@@ -352,7 +346,7 @@ pub fn diagnose(
             seed: cfg.seed,
             boot: cfg.boot,
         },
-        &pb,
+        pb,
     );
     // Unexplained regions, with the discrepancy's withheld recovery.
     let res_aug: Vec<[f64; 2]> = ds
@@ -455,7 +449,7 @@ pub fn diagnose(
             })
         }
     };
-    pb.finish_and_clear();
+    pb.finish();
     Ok(Diagnosis {
         sources: vec![log.source.clone()],
         ident,

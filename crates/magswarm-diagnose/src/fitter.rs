@@ -3,8 +3,8 @@
 
 use super::candidates::{self, Augmented, Ctx};
 use super::data::Dataset;
-use crate::identify::params::{self, Free};
-use crate::lm::{self, LevenbergMarquardt};
+use magswarm_fit::lm::{self, LevenbergMarquardt};
+use magswarm_identify::params::{self, Free};
 use magswarm_model::effects::FitParam as EffParam;
 use nalgebra::{DMatrix, DVector};
 
@@ -28,7 +28,7 @@ impl Knob {
             Knob::Base(f) => (
                 f.lo,
                 f.hi,
-                f.def.transform == crate::identify::params::Transform::Log,
+                f.def.transform == magswarm_identify::params::Transform::Log,
             ),
             Knob::Eff { def, .. } => (def.lo, def.hi, def.log),
         }

@@ -2,9 +2,9 @@
 //! diverging colour map centred on zero, residuals over session time and after input changes.
 
 use super::*;
-use crate::diagnose::{attribute, shapes};
-use crate::report::residual::{residual_map, ResidualMap};
+use crate::{attribute, shapes};
 use magswarm_model::effects::LearnedAxis;
+use magswarm_report::residual::{residual_map, ResidualMap};
 
 /// Mean visit residual per point (NaN where a point has no visit).
 fn point_means(d: &Diagnosis, pred: &[[f64; 2]], a: usize) -> Vec<f64> {

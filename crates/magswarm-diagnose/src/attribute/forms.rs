@@ -10,7 +10,7 @@ pub(super) fn choose_forms(
     named: &[(EffectKind, Vec<Variant>)],
     out: &mut Attribution,
     st: Settings,
-    progress: &indicatif::ProgressBar,
+    progress: &dyn Progress,
 ) -> (Augmented, Design, Vec<(EffectKind, Family)>) {
     let ds = lin.ds;
     let mut design = lin.jac.clone();

@@ -1,17 +1,17 @@
 //! The diagnosis data set: every valid row of the logs with its session, visit and operating
 //! point, the baseline's fixed transient part, and the pure error of the repeats.
 //!
-//! Visits and the settled/transient split are identify's ([`crate::identify::data`]): a
+//! Visits and the settled/transient split are identify's ([`magswarm_identify::data`]): a
 //! visit is a maximal run of rows with the same commanded inputs within a session. The
 //! *transient part* of the baseline at a row is its ODE (4) replay minus its steady map at the
 //! row's inputs; it is computed once from the baseline and held fixed while candidates are
 //! refitted (the steady map and the effects are refitted, the baseline's time scales are not).
 
 use super::DiagnoseError;
-use crate::identify::data::{self as idata, key, Session};
-use crate::identify::fit::predict_point;
-use crate::log::Log;
-use crate::predict::{replay, InputRow};
+use magswarm_identify::data::{self as idata, key, Session};
+use magswarm_identify::fit::predict_point;
+use magswarm_identify::predict::{replay, InputRow};
+use magswarm_log::Log;
 use magswarm_model::Model;
 use std::collections::BTreeMap;
 

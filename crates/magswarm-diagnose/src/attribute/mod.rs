@@ -51,7 +51,8 @@ use super::gap::{self, Region};
 use super::linear::{self, Design, Monotone, Solver};
 use super::noise::{self, Noise};
 use super::shapes::{self, Axis, Family, Mode, RowCtx, Shape};
-use crate::identify::params::{self, Free};
+use magswarm_identify::params::{self, Free};
+use magswarm_identify::Progress;
 use magswarm_model::effects::EffectKind;
 use nalgebra::{DMatrix, DVector};
 use rand::{seq::SliceRandom, SeedableRng};
@@ -209,7 +210,7 @@ pub fn attribute(
     regions: &[Region],
     base_map: &[[f64; 2]],
     st: Settings,
-    progress: &indicatif::ProgressBar,
+    progress: &dyn Progress,
 ) -> Attribution {
     let (ds, ctx) = (lin.ds, lin.ctx);
     let eval_of = |d: &Design, names: Vec<String>, aug: Augmented| -> Evaluated {

@@ -22,7 +22,7 @@
 //! the lab's default noise.
 
 use super::{generate, Foreign, LabError, Noise, Protocol, Scenario};
-use crate::log::{Layout, Log, LogRow, LogWriter};
+use magswarm_log::{Layout, Log, LogRow, LogWriter};
 use magswarm_model::effects::EffectKind;
 use magswarm_model::Model;
 

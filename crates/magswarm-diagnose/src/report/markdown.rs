@@ -180,23 +180,22 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     } else {
         let _ = writeln!(w, "| effect | round | withheld gain | null {:.0} % quantile | bootstrap p | best variant | form in the model (gain library / learned) | notes | share of a region removed | withheld RMSE r1 / r2 [mm] | parameters | verdict |\n|---|---|---|---|---|---|---|---|---|---|---|---|", 100.0 * (1.0 - d.cfg.alpha));
         for e in &d.attr.evals {
-            let cv = crate::diagnose::rmse(&d.ds, &e.model.cv);
+            let cv = crate::rmse(&d.ds, &e.model.cv);
             let form = match &e.form {
-                crate::diagnose::attribute::Form::Learned(sh) => format!(
+                crate::attribute::Form::Learned(sh) => format!(
                     "learned shape over {}, {} ({} knots)",
                     sh.family.axis.label(),
                     sh.family.mode.key(),
                     sh.family.knots.len()
                 ),
-                crate::diagnose::attribute::Form::Parametric if e.accepted => "library form".into(),
+                crate::attribute::Form::Parametric if e.accepted => "library form".into(),
                 _ => "-".into(),
             };
             let form = match e.form_gains {
                 Some((l, s)) => format!("{form} ({} / {})", g(l), g(s)),
                 None => form,
             };
-            let ps = if e.accepted && matches!(e.form, crate::diagnose::attribute::Form::Parametric)
-            {
+            let ps = if e.accepted && matches!(e.form, crate::attribute::Form::Parametric) {
                 param_strings(e.kind, &e.model.full.aug.synced())
             } else {
                 Vec::new()
@@ -249,7 +248,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 if d.attr.anomaly_won { ": it beat every effect, so the gap is reported unexplained" } else { "" }
             );
         }
-        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in row-noise units, best variant) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p < alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::diagnose::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
+        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in row-noise units, best variant) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p < alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
     }
     let _ = writeln!(w, "## Unexplained\n");
     if d.unexplained.is_empty() {

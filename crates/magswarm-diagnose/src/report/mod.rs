@@ -6,9 +6,9 @@
 use super::gap::{self, Kind, Region};
 use super::DiagnoseError;
 use super::{candidates, Diagnosis, Rmse};
-use crate::plot::{self, Panel, Series};
-use crate::report::{ReportError, Result};
 use magswarm_model::effects::EffectKind;
+use magswarm_report::plot::{self, Panel, Series};
+use magswarm_report::{ReportError, Result};
 use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::Path;

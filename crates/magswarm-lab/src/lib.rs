@@ -42,7 +42,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-use crate::log::LogRow;
+use magswarm_log::LogRow;
 pub use protocol::{Protocol, Visit};
 pub use truth::{Foreign, LabSwarm};
 

@@ -71,7 +71,7 @@ pub enum DiagnoseError {
     },
     /// The baseline could not be identified.
     #[error("fitting the baseline (identify): {0}")]
-    Baseline(#[source] crate::identify::IdentifyError),
+    Baseline(#[source] magswarm_identify::IdentifyError),
     /// A session could not be replayed through the baseline.
     #[error("replaying session {session} through the baseline: {source}")]
     Replay {
@@ -79,7 +79,7 @@ pub enum DiagnoseError {
         session: String,
         /// Why.
         #[source]
-        source: crate::identify::PredictError,
+        source: magswarm_identify::PredictError,
     },
     /// The gap tests' linear systems are singular.
     #[error("{source_name}: the gap tests could not be computed (singular design)")]
@@ -101,7 +101,7 @@ pub enum DiagnoseError {
     },
     /// A figure or file of the report could not be written.
     #[error(transparent)]
-    Report(#[from] crate::report::ReportError),
+    Report(#[from] magswarm_report::ReportError),
     /// A model file of the report could not be written.
     #[error(transparent)]
     SaveModel(#[from] magswarm_model::ModelError),

@@ -149,7 +149,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                 }
                 let info = (0..k).map(|c| a.column(c).norm_squared()).sum::<f64>() / k as f64;
                 let info = info.max(1e-12);
-                let pen = crate::diagnose::linear::roughness(k, 1, 0.3 * info, 1e-3 * info);
+                let pen = crate::linear::roughness(k, 1, 0.3 * info, 1e-3 * info);
                 cv.push(Variant::Columns("offset, amplitude over z_m", a, pen));
             }
             cv.push(Variant::Column("offset", col));

@@ -67,7 +67,7 @@ pub enum LabError {
     Write(#[from] std::io::Error),
     /// The log as written could not be read back.
     #[error(transparent)]
-    Log(#[from] crate::log::LogError),
+    Log(#[from] magswarm_log::LogError),
     /// The truth's ODE (4) could not be integrated.
     #[error("session {session} at t = {t} s: ODE (4) could not be integrated at z_m = {z_mm:.3} mm, f = {f_hz:.3} Hz: {message}")]
     Integrate {
