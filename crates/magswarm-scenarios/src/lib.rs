@@ -138,7 +138,7 @@ impl Scenario {
         let mut strengths = Vec::new();
         let mut visible_at = Vec::new();
         for t in &self.truths {
-            let (x, s) = if t.shape.effect() == EFFECTS[5] {
+            let (x, s) = if t.shape.effect() == "camera_bias" {
                 (t.strength, absorb.visible(&[(t.shape, t.strength)]))
             } else {
                 absorb.calibrate(t.shape, t.strength)

@@ -7,7 +7,6 @@
 
 use crate::GRID_F;
 use crate::GRID_Z;
-use magswarm_model::effects::EffectKind;
 
 /// A foreign shape of an effect (or an anomaly no effect describes).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -106,16 +105,14 @@ pub enum Shape {
     SpikeR2 { z0: f64, f0: f64 },
 }
 
-/// Effect names, as diagnose reports them: the model file's names, taken from the model
-/// crate (the names are where a truth label meets a report; no formula of the effect terms
-/// is used here).
+/// Effect names, as diagnose reports them.
 pub const EFFECTS: [&str; 6] = [
-    EffectKind::PhaseLag.name(),
-    EffectKind::CohesionLoss.name(),
-    EffectKind::FormationLag.name(),
-    EffectKind::ParticleDrift.name(),
-    EffectKind::CentroidOffset.name(),
-    EffectKind::CameraBias.name(),
+    "phase_lag",
+    "cohesion_loss",
+    "formation_lag",
+    "particle_drift",
+    "centroid_offset",
+    "camera_bias",
 ];
 
 /// What a shape does at one operating point, given the rig's map there (`base`), the rig's
