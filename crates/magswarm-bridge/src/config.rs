@@ -7,6 +7,10 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+/// The kinds of arm this build drives (`[robot] kind`), one per arm of
+/// [`crate::robots::open`].
+pub const ROBOT_KINDS: &[&str] = &["ur"];
+
 /// A configuration error, naming the key.
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
@@ -452,13 +456,12 @@ impl RigConfig {
                 ));
             }
         }
-        if !crate::robot::KINDS.contains(&self.robot.kind.as_str()) {
+        if !ROBOT_KINDS.contains(&self.robot.kind.as_str()) {
             return Err(bad(
                 "robot.kind",
                 format!(
                     "{:?} is not a known robot (known: {:?})",
-                    self.robot.kind,
-                    crate::robot::KINDS
+                    self.robot.kind, ROBOT_KINDS
                 ),
             ));
         }

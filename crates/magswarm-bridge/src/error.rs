@@ -61,14 +61,14 @@ pub enum SetupError {
         source: StepperError,
     },
     /// `[robot] kind` names no arm of this build.
-    #[error("[robot] kind {0:?}: not a known robot (known: {known:?})", known = crate::robot::KINDS)]
+    #[error("[robot] kind {0:?}: not a known robot (known: {known:?})", known = crate::config::ROBOT_KINDS)]
     UnknownRobot(String),
     /// The arm's RTDE link.
     #[error("[robot] {0}")]
     Rtde(#[from] RtdeError),
     /// The arm's dashboard or secondary interface.
     #[error("[robot] {0}")]
-    Ur(#[from] UrError),
+    Ur(UrError),
     /// The arm is not ready (no data, its program does not play).
     #[error("[robot] {0}")]
     RobotNotReady(String),
@@ -84,4 +84,17 @@ pub enum SetupError {
         /// The error.
         source: std::io::Error,
     },
+}
+
+/// The arm's setup errors keep the names they have for every arm: its RTDE link's, a fault's,
+/// "not ready"; the rest are the UR's own.
+impl From<UrError> for SetupError {
+    fn from(e: UrError) -> Self {
+        match e {
+            UrError::Rtde(e) => SetupError::Rtde(e),
+            UrError::Fault(f) => SetupError::Fault(f),
+            UrError::NotReady(m) => SetupError::RobotNotReady(m),
+            e => SetupError::Ur(e),
+        }
+    }
 }

@@ -15,9 +15,9 @@ use std::time::{Duration, Instant};
 use crate::camera::{self, CameraError, Frame, Measurer, Radii, Threaded};
 use crate::config::RigConfig;
 use crate::error::SetupError;
-use crate::robot::{self, Robot};
-use crate::run::Signals;
+use crate::robot::Robot;
 use crate::safety::{Envelope, Fault, Shaper};
+use crate::signals::Signals;
 use crate::stepper::StepperError;
 use crate::watchdog::link::StepperGuard;
 use crate::watchdog::{self, GuardSpec};
@@ -94,7 +94,7 @@ impl Rig {
             )
             .map_err(stepper_err)?;
             stepper_dev = Some(guard);
-            let mut rb = robot::open(cfg, &env)?;
+            let mut rb = crate::robots::open(cfg, &env)?;
             z_now = Some(rb.check().map_err(SetupError::Fault)?);
             robot = Some(rb);
         }

@@ -2,16 +2,11 @@
 //! per kind of robot (`[robot] kind`; today `"ur"`, [`crate::ur::UrRobot`]).
 //!
 //! Another arm is one more file: a type implementing [`Robot`] (its link, its own watchdog
-//! on the commands, its safety state) and one arm in [`open`]. Every command it gets has been
+//! on the commands, its safety state) and one arm in [`crate::robots::open`]. Every command it gets has been
 //! through the bridge's safety core already (clamped, rate limited, finite); the arm's own
 //! controller should clamp again, as the UR's servo program does.
 
-use crate::config::RigConfig;
-use crate::error::SetupError;
-use crate::safety::{Envelope, Fault};
-
-/// The kinds of arm this build drives (`[robot] kind`), one per arm of [`open`].
-pub const KINDS: &[&str] = &["ur"];
+use crate::safety::Fault;
 
 /// What the rig needs of an arm.
 pub trait Robot: Send {
@@ -28,13 +23,4 @@ pub trait Robot: Send {
 
     /// One line about the arm (controller, version, address).
     fn describe(&self) -> String;
-}
-
-/// Connect to the arm of the config, bring it up and start its program, with the envelope
-/// `env` (the arm's own clamps where it has them).
-pub fn open(cfg: &RigConfig, env: &Envelope) -> Result<Box<dyn Robot>, SetupError> {
-    match cfg.robot.kind.as_str() {
-        "ur" => Ok(Box::new(crate::ur::UrRobot::open(cfg, env)?)),
-        k => Err(SetupError::UnknownRobot(k.to_string())),
-    }
 }

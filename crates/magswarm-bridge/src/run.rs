@@ -8,7 +8,6 @@
 //! write `valid=0` rows naming the fault, flush, return the fault (the binary exits non-zero).
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use magswarm_control::{Controller, PidConfig};
@@ -20,6 +19,8 @@ use crate::rig::{Poll, Rig};
 use crate::safety::{Envelope, Fault, FaultLatch};
 use crate::schedule::Schedule;
 use crate::shadow::Shadow;
+/// The SIGINT / SIGTERM flags a run checks (kept at this path for the program).
+pub use crate::signals::Signals;
 
 /// A caller's law: (t \[s\], measured radii \[mm\] when the frame is valid) -> (z_m \[mm\], f \[Hz\]).
 pub type Law = Arc<std::sync::Mutex<dyn FnMut(f64, Option<[f64; 2]>) -> (f64, f64) + Send>>;
@@ -56,35 +57,6 @@ pub struct RunOptions {
     pub duration: Option<f64>,
     /// Talk to no actuator.
     pub dry_run: bool,
-}
-
-/// SIGINT / SIGTERM flags.
-#[derive(Clone, Default)]
-pub struct Signals {
-    /// SIGINT seen.
-    pub int: Arc<AtomicBool>,
-    /// SIGTERM seen.
-    pub term: Arc<AtomicBool>,
-}
-
-impl Signals {
-    /// Register the handlers (the flags are set; the loop notices within one poll).
-    pub fn install() -> std::io::Result<Signals> {
-        let s = Signals::default();
-        signal_hook::flag::register(signal_hook::consts::SIGINT, s.int.clone())?;
-        signal_hook::flag::register(signal_hook::consts::SIGTERM, s.term.clone())?;
-        Ok(s)
-    }
-
-    pub(crate) fn check(&self) -> Result<(), Fault> {
-        if self.int.load(Ordering::SeqCst) {
-            return Err(Fault::Signal("SIGINT".into()));
-        }
-        if self.term.load(Ordering::SeqCst) {
-            return Err(Fault::Signal("SIGTERM".into()));
-        }
-        Ok(())
-    }
 }
 
 /// How a run ended.

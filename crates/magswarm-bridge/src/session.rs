@@ -27,9 +27,9 @@ use std::time::{Duration, Instant};
 use crate::config::RigConfig;
 use crate::error::SetupError;
 use crate::rig::{Poll, Rig};
-use crate::run::Signals;
 use crate::safety::Fault;
 use crate::shadow::Shadow;
+use crate::signals::Signals;
 
 /// How long the keeper waits for a frame in one turn of its loop: the latest a new input
 /// goes out after `step` hands it over.

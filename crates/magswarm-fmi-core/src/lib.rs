@@ -20,7 +20,7 @@
 //! - [`snapshot`]: FMU states in memory and as bytes;
 //! - [`barrier`]: the panic barrier; [`ffi`]: importer pointers to slices;
 //! - [`mod@guid`]: the GUID / instantiation token both sides compute; [`uri`]: resource
-//!   locations to paths; [`units`]: ready-made unit definitions; [`jacobian`]: the
+//!   locations to paths; [`units`]: ready-made unit definitions; [`model::finite_difference`]: the
 //!   finite-difference fallback; [`unload`]: one-time tables freed at `dlclose`;
 //! - [`xml`]: the parts of `modelDescription.xml` that are the same in both versions.
 //!
@@ -105,7 +105,6 @@ pub mod ffi;
 pub mod guid;
 pub mod info;
 pub mod instance;
-pub mod jacobian;
 pub mod log;
 pub mod mode;
 pub mod model;
@@ -118,6 +117,12 @@ pub mod unload;
 pub mod uri;
 pub mod variable;
 pub mod xml;
+
+/// How far a communication point (or an event time) may be from the instance's time
+/// (relative to max(1, |t|)) before a step is refused: generous enough for importers that
+/// compute `t = t0 + n*h` instead of summing steps, tight enough to catch a skipped or
+/// repeated step.
+pub const TIME_TOLERANCE: f64 = 1e-9;
 
 pub use guid::guid;
 pub use info::{

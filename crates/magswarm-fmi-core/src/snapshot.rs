@@ -241,7 +241,7 @@ fn validate_shell(
     if !time.is_finite() || !start_time.is_finite() {
         return bad(format!("non-finite time {time} or start time {start_time}"));
     }
-    let slack = crate::instance::TIME_TOLERANCE * start_time.abs().max(time.abs()).max(1.0);
+    let slack = crate::TIME_TOLERANCE * start_time.abs().max(time.abs()).max(1.0);
     if time < start_time - slack {
         return bad(format!("time {time} is before the start time {start_time}"));
     }

@@ -9,8 +9,9 @@
 //! pooled repeat SD of each axis.
 
 use super::data::Session;
-use super::fit::{self, Covariance, Run};
+use super::fit::Run;
 use super::params::{self, Free};
+use super::uncertainty::{self, Covariance};
 use crate::predict::{replay, InputRow};
 use magswarm_fit::lm::{self, LevenbergMarquardt};
 use magswarm_fit::optim;
@@ -152,7 +153,7 @@ pub fn fit(
         params::set(&mut m, free[c].name(), theta[c]);
         r
     });
-    let cov = fit::diagnostics(jac, &base, None);
+    let cov = uncertainty::diagnostics(jac, &base, None);
     let run = Run {
         u: out.u,
         theta,

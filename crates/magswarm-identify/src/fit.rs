@@ -255,7 +255,3 @@ pub fn starts(free: &[Free], theta0: &[f64], n: usize, seed: u64) -> Vec<DVector
     }
     out
 }
-
-pub use super::uncertainty::{
-    bootstrap, covariance, data_residuals, diagnostics, t975, BootStat, Covariance,
-};

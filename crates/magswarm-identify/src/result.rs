@@ -4,8 +4,9 @@
 
 use super::config::Collinear;
 use super::data::{OpPoint, SettleRule, Weighting};
-use super::fit::{self, BootStat, Covariance, Run};
+use super::fit::{self, Run};
 use super::params::Free;
+use super::uncertainty::{BootStat, Covariance};
 use magswarm_model::{hz_to_rad_s, steady, Model};
 use std::time::Duration;
 

@@ -7,6 +7,7 @@ use super::data::OpPoint;
 use super::fit::{self, Ridge, Run};
 use super::params::{self, Free};
 use super::result::{AutoFix, Estimate, SteadyFit};
+use super::uncertainty;
 use crate::Progress;
 use magswarm_model::Model;
 
@@ -16,9 +17,9 @@ pub(super) fn estimates(
     free: &[Free],
     fitted: &Model,
     prior: &Model,
-    cov: &fit::Covariance,
+    cov: &uncertainty::Covariance,
 ) -> Vec<Estimate> {
-    let t = fit::t975(cov.dof);
+    let t = uncertainty::t975(cov.dof);
     free.iter()
         .enumerate()
         .map(|(j, f)| {
@@ -94,7 +95,7 @@ pub(super) fn steady_fit(
     loop {
         let ridge = ridge_for(&free, prior, cfg.collinear);
         let (m, runs) = multi_start(prior, &free, points, ridge.as_ref(), cfg, pb);
-        let cov = fit::covariance(&m, &free, points, ridge.as_ref());
+        let cov = uncertainty::covariance(&m, &free, points, ridge.as_ref());
         if let Collinear::Fix { cond_max } = cfg.collinear {
             if cov.cond_scaled > cond_max && free.len() > 1 {
                 if cov_initial.is_none() {
@@ -156,7 +157,7 @@ pub(super) fn bootstrap_step(
         return;
     }
     let ridge = ridge_for(&sfit.free, prior, cfg.collinear);
-    let (stats, ok) = fit::bootstrap(
+    let (stats, ok) = uncertainty::bootstrap(
         model,
         &sfit.free,
         points,

@@ -3,7 +3,8 @@
 
 use magswarm_model::Model;
 
-use super::figures::{eval_mm, ClosedLoopPoint};
+use super::figures::ClosedLoopPoint;
+use super::grid::eval_mm;
 use super::seed;
 use magswarm_fit::optim::nelder_mead;
 

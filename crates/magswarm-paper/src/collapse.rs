@@ -3,7 +3,8 @@
 
 use magswarm_model::{hz_to_rad_s, steady, Model};
 
-use super::figures::{median, CollapseFigures};
+use super::figures::CollapseFigures;
+use super::grid::median;
 use super::seed;
 
 /// Collapse variables y_i = r_i S_i^alpha_i / C_i of noisy synthetic repeats on the seed grid.

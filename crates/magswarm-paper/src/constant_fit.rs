@@ -349,7 +349,7 @@ fn fit_one(
 
 /// Fit constant gains over the fine envelope grid (see the module doc).
 pub fn fit(model: &Model) -> ConstantFit {
-    let (zs, fs) = super::fine_grid(model);
+    let (zs, fs) = super::grid::fine_grid(model);
     // Start from the median scheduled gains (what the scheduled model uses mid-envelope).
     let mut sched = model.clone();
     sched.dynamics.confinement = Confinement::Scheduled;
@@ -366,7 +366,12 @@ pub fn fit(model: &Model) -> ConstantFit {
         k2.push(t.k_b[1]);
     }
     let d = &model.dynamics;
-    let base = [super::median(&k1), super::median(&k2), d.K_tau, d.p];
+    let base = [
+        super::grid::median(&k1),
+        super::grid::median(&k2),
+        d.K_tau,
+        d.p,
+    ];
     let grid = (&zs[..], &fs[..]);
     let kb_starts: Vec<Params> = [1.0, 0.3, 3.0]
         .iter()

@@ -4,7 +4,8 @@
 use magswarm_model::dynamics::{equilibria, InputTerms};
 use magswarm_model::{hz_to_rad_s, Model};
 
-use super::figures::{fine_grid, range, DynamicsFigures};
+use super::figures::DynamicsFigures;
+use super::grid::{fine_grid, range};
 
 /// Per-point results of the dynamics sweep.
 pub(super) struct DynSweep {

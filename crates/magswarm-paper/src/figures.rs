@@ -2,14 +2,11 @@
 //! their computation on the seed's 50-point grid ([`paper_figures`]); the dynamics, closed-loop
 //! and collapse figures come from their own modules.
 
-use magswarm_model::{hz_to_rad_s, steady, Model};
+use magswarm_model::{steady, Model};
 use serde::Serialize;
 
-use super::closed_loop::closed_loop;
-use super::collapse::collapse;
 use super::constant_fit;
-use super::dynamics::dynamics_sweep;
-use super::table::{rows, Row};
+use super::grid::{eval_mm, median, range, seed_axes};
 
 /// Magnet and dipole constants of the model.
 #[derive(Debug, Clone, Serialize)]
@@ -163,7 +160,7 @@ pub struct PaperFigures {
     pub closed_loop: Vec<ClosedLoopPoint>,
     /// ODE (4) versus map.
     pub dynamics: DynamicsFigures,
-    /// Formation time constants \[s\] on the fine grid ([`fine_grid`]), `tau_map[f][z_m]`.
+    /// Formation time constants \[s\] on the fine grid ([`fine_grid`](crate::fine_grid)), `tau_map[f][z_m]`.
     /// Not serialised.
     #[serde(skip)]
     pub tau_map: Vec<Vec<f64>>,
@@ -173,60 +170,6 @@ pub struct PaperFigures {
     pub collapse: CollapseFigures,
     /// The table as printed.
     pub table: Vec<Row>,
-}
-
-/// Median of a slice (NaNs excluded); NaN when empty.
-pub fn median(v: &[f64]) -> f64 {
-    let mut s: Vec<f64> = v.iter().copied().filter(|x| !x.is_nan()).collect();
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
-}
-
-/// Median absolute deviation (unscaled).
-pub fn mad(v: &[f64]) -> f64 {
-    let m = median(v);
-    let d: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
-    median(&d)
-}
-
-pub(super) fn range(v: impl Iterator<Item = f64>) -> [f64; 2] {
-    v.fold([f64::INFINITY, f64::NEG_INFINITY], |a, x| {
-        [a[0].min(x), a[1].max(x)]
-    })
-}
-
-/// The fine envelope grid: z_m \[mm\] and f \[Hz\] values (41 x 46: 0.5 mm, 0.2 Hz).
-pub fn fine_grid(model: &Model) -> (Vec<f64>, Vec<f64>) {
-    let e = &model.envelope;
-    let (z0, z1) = (e.z_min_m * 1e3, e.z_max_m * 1e3);
-    let zs = (0..41).map(|i| z0 + (z1 - z0) * i as f64 / 40.0).collect();
-    let fs = (0..46)
-        .map(|j| e.f_min_hz + (e.f_max_hz - e.f_min_hz) * j as f64 / 45.0)
-        .collect();
-    (zs, fs)
-}
-
-/// Seed grid axes: z_m \[mm\], f \[Hz\].
-pub fn seed_axes() -> (Vec<f64>, Vec<f64>) {
-    let g = magswarm_model::seed_grid();
-    let mut zs: Vec<f64> = g.iter().map(|p| p.0 * 1e3).collect();
-    zs.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-    let mut fs: Vec<f64> = g.iter().map(|p| p.1).collect();
-    fs.sort_by(f64::total_cmp);
-    fs.dedup();
-    (zs, fs)
-}
-
-pub fn eval_mm(model: &Model, z_mm: f64, f: f64) -> steady::SteadyPoint {
-    steady::evaluate(model, z_mm * 1e-3, hz_to_rad_s(f))
 }
 
 pub(super) fn grid_figures(model: &Model) -> GridFigures {
@@ -317,20 +260,17 @@ pub(super) fn magnet_figures(model: &Model) -> MagnetFigures {
     }
 }
 
-/// Compute every figure `magswarm paper` reports for `model`.
-pub fn paper_figures(model: &Model) -> PaperFigures {
-    let sweep = dynamics_sweep(model);
-    let mut pf = PaperFigures {
-        model_name: model.name.clone(),
-        magnet: magnet_figures(model),
-        grid: grid_figures(model),
-        closed_loop: closed_loop(model),
-        dynamics: sweep.figures,
-        tau_map: sweep.tau,
-        constant_fit: constant_fit::fit(model),
-        collapse: collapse(model).figures,
-        table: Vec::new(),
-    };
-    pf.table = rows(&pf);
-    pf
+/// One printed row: figure, seed value, model value, deviation.
+#[derive(Debug, Clone, Serialize)]
+pub struct Row {
+    /// Section heading the row belongs to.
+    pub section: String,
+    /// What is compared.
+    pub figure: String,
+    /// The seed's value (text).
+    pub seed: String,
+    /// The model's value (text).
+    pub model: String,
+    /// Relative deviation or other comparison (text).
+    pub deviation: String,
 }

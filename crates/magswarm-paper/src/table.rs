@@ -1,25 +1,8 @@
 //! The printed table: one row per reported figure (seed value, model value, deviation),
 //! grouped by section, and its text rendering.
 
-use serde::Serialize;
-
-use super::figures::PaperFigures;
+use super::figures::{PaperFigures, Row};
 use super::seed;
-
-/// One printed row: figure, seed value, model value, deviation.
-#[derive(Debug, Clone, Serialize)]
-pub struct Row {
-    /// Section heading the row belongs to.
-    pub section: String,
-    /// What is compared.
-    pub figure: String,
-    /// The seed's value (text).
-    pub seed: String,
-    /// The model's value (text).
-    pub model: String,
-    /// Relative deviation or other comparison (text).
-    pub deviation: String,
-}
 
 pub(super) fn pct(model: f64, seed: f64) -> String {
     format!("{:+.1} %", (model / seed - 1.0) * 100.0)

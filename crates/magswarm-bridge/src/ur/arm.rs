@@ -6,9 +6,8 @@
 
 use std::time::{Duration, Instant};
 
-use super::{upload_script, Dashboard, ServoScript};
+use super::{upload_script, Dashboard, ServoScript, UrError};
 use crate::config::RigConfig;
-use crate::error::SetupError;
 use crate::robot::Robot;
 use crate::rtde::proto::{runtime_state, safety_mode};
 use crate::rtde::{RobotState, UrLink};
@@ -59,11 +58,11 @@ impl UrRobot {
     }
 
     /// Connect, check, bring up, upload the servo program and wait for it to play.
-    pub fn open(cfg: &RigConfig, env: &Envelope) -> Result<UrRobot, SetupError> {
+    pub fn open(cfg: &RigConfig, env: &Envelope) -> Result<UrRobot, UrError> {
         let r = &cfg.robot;
         let link = UrLink::connect(&r.host, r.rtde_port, r.frequency_hz, Duration::from_secs(2))?;
         let first = link.wait_state(Duration::from_secs(2)).ok_or_else(|| {
-            SetupError::RobotNotReady(format!(
+            UrError::NotReady(format!(
                 "RTDE {}:{}: no data package within 2 s{}",
                 r.host,
                 r.rtde_port,
@@ -72,7 +71,7 @@ impl UrRobot {
         })?;
         if first.safety_mode != safety_mode::NORMAL {
             // Never unlocked automatically: the operator clears it on the pendant.
-            return Err(SetupError::Fault(Fault::SafetyMode(first.safety_mode)));
+            return Err(UrError::Fault(Fault::SafetyMode(first.safety_mode)));
         }
         let dash = if r.dashboard_port != 0 {
             let mut d = Dashboard::connect(&r.host, r.dashboard_port, Duration::from_secs(2))?;
@@ -94,7 +93,7 @@ impl UrRobot {
         };
         // First target: where the tool is, clamped to the envelope (the program rate limits).
         let z_now = rb.z_mm(&first).clamp(env.z_mm[0], env.z_mm[1]);
-        rb.command(z_now).map_err(SetupError::Fault)?;
+        rb.command(z_now).map_err(UrError::Fault)?;
         if r.script_port != 0 {
             let prog = ServoScript {
                 z_min_m: r.z_tcp_at_zero_m + env.z_mm[0] * 1e-3,
@@ -109,14 +108,14 @@ impl UrRobot {
         // Wait for the program to play, heartbeating.
         let t0 = Instant::now();
         loop {
-            rb.command(z_now).map_err(SetupError::Fault)?;
+            rb.command(z_now).map_err(UrError::Fault)?;
             if let Some(s) = rb.link.state() {
                 if s.runtime_state == runtime_state::PLAYING {
                     break;
                 }
             }
             if t0.elapsed() > Duration::from_secs(3) {
-                return Err(SetupError::RobotNotReady(format!(
+                return Err(UrError::NotReady(format!(
                     "the servo program is not playing 3 s after {} (runtime_state {})",
                     if r.script_port != 0 {
                         "the upload"

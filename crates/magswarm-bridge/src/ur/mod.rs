@@ -48,6 +48,12 @@ pub enum UrError {
     /// The robot did not come up.
     #[error("{0}")]
     NotReady(String),
+    /// The arm's RTDE link.
+    #[error(transparent)]
+    Rtde(#[from] crate::rtde::RtdeError),
+    /// The arm is in a fault state (e.g. a protective stop), or faulted while starting.
+    #[error("{name}: {0}", name = .0.name())]
+    Fault(crate::safety::Fault),
 }
 
 /// Connect to `host:port` (interface `what`) within `timeout`.

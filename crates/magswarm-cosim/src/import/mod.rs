@@ -8,11 +8,12 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use fmi::fmi2::binding::Fmi2Binding;
+use fmi::fmi3::binding::Fmi3Binding;
 use fmi::traits::FmiImport;
 pub use magswarm_fmi::FmiVersion;
 
 use crate::error::{CosimError, Result};
-use crate::slave::{Api, FmuSlave, SlaveOptions};
 
 mod v2;
 mod v3;
@@ -123,6 +124,18 @@ impl Import {
     }
 }
 
+/// The function table of the loaded library (the `fmi` crate's raw bindings), for
+/// benchmarks that call the C ABI directly ([`crate::FmuSlave::api`]).
+// One per loaded FMU, inside its shared handle: the size difference costs nothing, a box
+// would cost an indirection per call.
+#[allow(clippy::large_enum_variant)]
+pub enum Api {
+    /// FMI 2.0.
+    V2(Fmi2Binding),
+    /// FMI 3.0.
+    V3(Fmi3Binding),
+}
+
 /// What a version's loader found.
 pub(crate) struct Loaded {
     pub(crate) api: Api,
@@ -151,7 +164,7 @@ pub(crate) struct FmuInner {
 }
 
 /// An imported FMU, FMI 2.0 or 3.0: the archive unpacked into a temporary directory (removed
-/// when the last clone of this handle and the last [`FmuSlave`] made from it are dropped),
+/// when the last clone of this handle and the last [`FmuSlave`](crate::FmuSlave) made from it are dropped),
 /// its modelDescription.xml parsed and its shared library loaded once.
 ///
 /// Unpacking is [`crate::extract`]'s (checked entry by entry), parsing and loading the `fmi`
@@ -335,10 +348,5 @@ impl Fmu {
             Some(Start::Real(x)) => Some(x),
             _ => None,
         })
-    }
-
-    /// Instantiate a Co-Simulation slave (shorthand for [`FmuSlave::instantiate`]).
-    pub fn instantiate(&self, instance_name: &str, options: SlaveOptions) -> Result<FmuSlave> {
-        FmuSlave::instantiate(self, instance_name, options)
     }
 }

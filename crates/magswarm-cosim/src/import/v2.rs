@@ -6,9 +6,9 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::schema::{self as schema, Fmi2ModelDescription, ScalarVariableElement};
 use fmi::traits::FmiImport;
 
+use super::Api;
 use super::{Capabilities, Causality, Import, Loaded, Start, VarType, Variable};
 use crate::error::{CosimError, Result};
-use crate::slave::Api;
 
 /// Load an unpacked FMI 2.0 FMU.
 pub(crate) fn load(path: &Path, dir: tempfile::TempDir, xml: &str) -> Result<Loaded> {

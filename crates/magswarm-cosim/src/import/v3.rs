@@ -8,9 +8,9 @@ use fmi::fmi3::schema::{
 };
 use fmi::traits::FmiImport;
 
+use super::Api;
 use super::{Capabilities, Causality, Import, Loaded, Start, VarType, Variable};
 use crate::error::{CosimError, Result};
-use crate::slave::Api;
 
 /// Load an unpacked FMI 3.0 FMU.
 pub(crate) fn load(path: &Path, dir: tempfile::TempDir, xml: &str) -> Result<Loaded> {

@@ -8,8 +8,9 @@
 
 use std::ffi::{c_char, c_void};
 
-use fmi::fmi2::binding::{self as b2, Fmi2Binding};
-use fmi::fmi3::binding::Fmi3Binding;
+use fmi::fmi2::binding as b2;
+
+use crate::import::Api;
 
 /// An instance (`fmi2Component` / `fmi3Instance`) or an FMU state: the same pointer type in
 /// both versions.
@@ -17,18 +18,6 @@ pub(crate) type Ptr = *mut c_void;
 
 /// One call's outcome: the FMI function called and its raw status.
 pub(crate) type Call = (&'static str, u32);
-
-/// The function table of the loaded library (the `fmi` crate's raw bindings), for
-/// benchmarks that call the C ABI directly ([`crate::FmuSlave::api`]).
-// One per loaded FMU, inside its shared handle: the size difference costs nothing, a box
-// would cost an indirection per call.
-#[allow(clippy::large_enum_variant)]
-pub enum Api {
-    /// FMI 2.0.
-    V2(Fmi2Binding),
-    /// FMI 3.0.
-    V3(Fmi3Binding),
-}
 
 /// Both versions' names of one function.
 macro_rules! names {

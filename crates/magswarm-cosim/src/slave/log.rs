@@ -21,8 +21,9 @@ use std::sync::Mutex;
 use fmi::fmi2::binding as b2;
 use fmi::fmi3::binding as b3;
 
-use super::call::{Api, Ptr};
+use super::call::Ptr;
 use crate::error::Status;
+use crate::import::Api;
 
 /// One message the FMU passed to the logger.
 #[derive(Debug, Clone, PartialEq, Eq)]

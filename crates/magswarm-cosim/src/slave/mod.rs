@@ -24,7 +24,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 mod call;
 mod log;
 
-pub use call::{Api, Scalar};
+pub use crate::import::Api;
+pub use call::Scalar;
 use call::{Call, Experiment, Ptr};
 pub use log::LogMessage;
 use log::{join_messages, lossy, Callbacks, Instantiation, LogBuffer};
@@ -594,5 +595,12 @@ impl Drop for FmuSlave {
         // SAFETY: the instance is freed exactly once; the callbacks and the log buffer are
         // dropped after this (struct fields drop after Drop::drop).
         unsafe { api.free_instance(self.component) };
+    }
+}
+
+impl Fmu {
+    /// Instantiate a Co-Simulation slave (shorthand for [`FmuSlave::instantiate`]).
+    pub fn instantiate(&self, instance_name: &str, options: SlaveOptions) -> Result<FmuSlave> {
+        FmuSlave::instantiate(self, instance_name, options)
     }
 }

@@ -29,11 +29,7 @@ pub mod me;
 pub mod step;
 pub mod values;
 
-/// How far a communication point (or an event time) may be from the instance's time
-/// (relative to max(1, |t|)) before a step is refused: generous enough for importers that
-/// compute `t = t0 + n*h` instead of summing steps, tight enough to catch a skipped or
-/// repeated step.
-pub const TIME_TOLERANCE: f64 = 1e-9;
+pub use crate::TIME_TOLERANCE;
 
 /// Which interface an instance was created for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
