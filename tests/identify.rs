@@ -1,4 +1,6 @@
 //! Recovery, coverage and error tests of `magswarm identify` on synthetic seed-like logs.
+#[path = "common/cli.rs"]
+mod cli;
 #[path = "common/synth.rs"]
 mod common;
 
@@ -252,7 +254,7 @@ fn args(logs: Vec<std::path::PathBuf>, out: std::path::PathBuf) -> IdentifyArgs 
 
 /// Run the `magswarm identify` of this build as a user does; its error message on failure.
 fn run_identify(a: &IdentifyArgs) -> Result<(), String> {
-    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_magswarm"));
+    let mut c = cli::magswarm();
     c.arg("identify");
     for l in &a.log {
         c.arg("--log").arg(l);
@@ -277,14 +279,7 @@ fn run_identify(a: &IdentifyArgs) -> Result<(), String> {
     if a.lenient {
         c.arg("--lenient");
     }
-    let o = c
-        .output()
-        .map_err(|e| format!("cannot run magswarm: {e}"))?;
-    if o.status.success() {
-        Ok(())
-    } else {
-        Err(String::from_utf8_lossy(&o.stderr).into_owned())
-    }
+    cli::run(c)
 }
 
 #[test]

@@ -1,4 +1,6 @@
 //! `magswarm predict`: replay of a log's inputs through a model.
+#[path = "common/cli.rs"]
+mod cli;
 #[path = "common/synth.rs"]
 mod common;
 
@@ -11,7 +13,7 @@ struct PredictArgs {
 
 /// Run the `magswarm predict` of this build as a user does; its error message on failure.
 fn run_predict(a: &PredictArgs) -> Result<(), String> {
-    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_magswarm"));
+    let mut c = cli::magswarm();
     c.arg("predict")
         .arg("--log")
         .arg(&a.log)
@@ -20,14 +22,7 @@ fn run_predict(a: &PredictArgs) -> Result<(), String> {
     if let Some(m) = &a.model {
         c.arg("--model").arg(m);
     }
-    let o = c
-        .output()
-        .map_err(|e| format!("cannot run magswarm: {e}"))?;
-    if o.status.success() {
-        Ok(())
-    } else {
-        Err(String::from_utf8_lossy(&o.stderr).into_owned())
-    }
+    cli::run(c)
 }
 
 use common::Spec;
