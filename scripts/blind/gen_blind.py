@@ -134,8 +134,10 @@ def tau_of(z_mm, lab):
 # Protocols: a schedule of setpoints (holds) and the times of the rows recorded in each
 # --------------------------------------------------------------------------------------------
 
-def protocol_rows(kind, rng, lab, short_wait=False):
-    """Returns holds: list of dict(z, f, t_start, t_rows (array)), and the session length."""
+def protocol_rows(kind, rng, lab, short_wait=False, sweep_ok=True):
+    """Returns holds: list of dict(z, f, t0 (the change), t_rows (array)), and the session
+    length. Grid visits in a random order, or (30 %, where sweep_ok) as a sweep: z outer, f
+    inner. A sweep confounds session time with z_m, so drift scenarios never use it."""
     holds = []
     t = 0.0
     if kind in ("single", "twice"):
@@ -143,14 +145,17 @@ def protocol_rows(kind, rng, lab, short_wait=False):
         nvis, nrow = (1, 10) if kind == "single" else (2, 5)
         order = []
         for _ in range(nvis):
-            idx = rng.permutation(len(pts)) if rng.uniform() < 0.7 else np.arange(len(pts))
+            sweep = rng.uniform() >= 0.7
+            idx = np.arange(len(pts)) if (sweep and sweep_ok) else rng.permutation(len(pts))
             order += [pts[i] for i in idx]
-        wait = rng.uniform(1.0, 3.0) if short_wait else rng.uniform(5.0, 9.0)
+        wait = rng.uniform(1.0, 3.0) if short_wait else rng.uniform(8.0, 20.0)
         dt = rng.choice([0.5, 1.0])
         for z, f in order:
             t_rows = t + wait + dt * np.arange(nrow)
             holds.append(dict(z=z, f=f, t0=t, t_rows=t_rows))
-            t = t_rows[-1] + rng.uniform(0.5, 2.0)
+            # the log format's rule: a row's inputs act since the previous row, so the change
+            # is made right after the last row of the previous visit
+            t = t_rows[-1]
     else:  # far-apart setpoint steps, streamed
         n = int(rng.integers(30, 40))
         dt = rng.choice([0.5, 1.0])
@@ -175,11 +180,11 @@ def withheld_holds(kind, rng, lab, T, nrow=6):
     holds = []
     if kind == "steps":
         # a streamed run of steps between the off-grid points
-        starts = np.sort(rng.uniform(0, max(T - 25, 1), size=len(sel)))
-        t = 0.0
-        for k, i in enumerate(sel):
+        # one streamed block of steps (contiguous: the inputs change right after a row)
+        t = rng.uniform(0, max(T - 16.0 * len(sel), 1.0))
+        for i in sel:
             z, f = pts[i]
-            t0 = max(starts[k], t)
+            t0 = t
             t_rows = t0 + 1.0 * np.arange(1, 17)
             holds.append(dict(z=z, f=f, t0=t0, t_rows=t_rows))
             t = t_rows[-1]
@@ -188,10 +193,10 @@ def withheld_holds(kind, rng, lab, T, nrow=6):
         t = 0.0
         for k, i in enumerate(sel):
             z, f = pts[i]
-            t0 = max(starts[k], t)
-            t_rows = t0 + 6.0 + 1.0 * np.arange(nrow)
+            t0 = t  # the change right after the previous row (log format's rule)
+            t_rows = max(starts[k], t) + 6.0 + 1.0 * np.arange(nrow)
             holds.append(dict(z=z, f=f, t0=t0, t_rows=t_rows))
-            t = t_rows[-1] + 0.5
+            t = t_rows[-1]
     return holds
 
 
@@ -232,14 +237,16 @@ def make_effect(name, variant, rng, lab):
                 return A * 0.4 * slip, A * slip  # both radii grow past step-out, r2 more
             desc = f"step-out hinge above f = {f0:.1f} Hz (B/B_mid)^{k:.2f}, growth with slip"
             return dict(target=hook), desc
-        if variant == 2:  # the swarm's rotation saturates: the map sees an effective frequency
-            fc_exp = rng.uniform(3, 6)
+        if variant == 2:  # a soft knee over f: past f_k the swarm lags the field more and more
+            fk = rng.uniform(5.5, 7.5)
+            wk = rng.uniform(0.3, 1.0)
+            share = rng.uniform(0.0, 0.4)
 
-            def feff(z, f, lab, A):
-                fc = 10.0 / max(A, 1e-6)
-                return f / (1 + (f / fc) ** fc_exp) ** (1 / fc_exp)
-            desc = f"rotation saturates: f_eff = f / (1 + (f/f_c)^{fc_exp:.1f})^(1/{fc_exp:.1f})"
-            return dict(ftarget=feff, amax=6.0), desc
+            def knee(z, f, lab, A):
+                u = wk * np.log1p(np.exp((f - fk) / wk))
+                return share * A * u, A * u
+            desc = f"soft knee over f at {fk:.1f} Hz (width {wk:.1f} Hz), r1 share {share:.2f}, every z_m"
+            return dict(target=knee), desc
         # variant 3: retrograde dip past the reversal frequency
         fr = rng.uniform(6.0, 7.5)
         wd = rng.uniform(0.6, 1.2)
@@ -249,7 +256,7 @@ def make_effect(name, variant, rng, lab):
             r1, r2 = steady(z, f, lab)
             g = np.exp(-0.5 * ((f - fr) / wd) ** 2)
             return -A * 0.05 * g * r1, -A * 0.05 * g * r2
-        return dict(target=hook3), desc
+        return dict(target=hook3, amax=8.0), desc
 
     if name == "cohesion_loss":
         if variant == 0:  # linear past an onset
@@ -267,7 +274,7 @@ def make_effect(name, variant, rng, lab):
                 s = 1 / (1 + np.exp(-(z - z0) / w))
                 return 0.05 * A * s * r1, 0.05 * A * s * r2
             desc = f"logistic onset at z = {z0:.1f} mm, width {w:.1f} mm, relative on both radii"
-            return dict(target=hook), desc
+            return dict(target=hook, amax=8.0), desc
         if variant == 2:  # power law in distance, stronger at high f (weaker binding when spun fast)
             pw = rng.uniform(3.0, 6.0)
 
@@ -316,24 +323,24 @@ def make_effect(name, variant, rng, lab):
     if name == "particle_drift":
         # losses shrink the swarm: factor (1 - loss(t/T)); T the session length
         if variant == 0:
-            return dict(gain=lambda t, T, A: 1 - 0.05 * A * t / T), "linear loss over the session"
+            return dict(gain=lambda t, T, A: 1 - 0.05 * A * t / T, amax=8.0), "linear loss over the session"
         if variant == 1:
             t0 = rng.uniform(0.3, 0.7)
             ramp = rng.uniform(0.0, 0.02)
             desc = f"sudden loss at {t0:.2f} T (ramp {ramp:.2f} T)"
-            return dict(gain=lambda t, T, A: 1 - 0.05 * A * np.clip((t / T - t0) / max(ramp, 1e-4), 0, 1)), desc
+            return dict(gain=lambda t, T, A: 1 - 0.05 * A * np.clip((t / T - t0) / max(ramp, 1e-4), 0, 1), amax=8.0), desc
         if variant == 2:
             ts = np.sort(rng.uniform(0.15, 0.9, size=3))
             sz = rng.dirichlet(np.ones(3))
             desc = "stepwise loss at " + ", ".join(f"{a:.2f} T" for a in ts)
-            return dict(gain=lambda t, T, A: 1 - 0.05 * A * sum(s * (t / T >= a) for a, s in zip(ts, sz))), desc
+            return dict(gain=lambda t, T, A: 1 - 0.05 * A * sum(s * (t / T >= a) for a, s in zip(ts, sz)), amax=8.0), desc
         if variant == 3:
             t0 = rng.uniform(0.5, 0.75)
             desc = f"late, accelerating loss from {t0:.2f} T (quadratic)"
-            return dict(gain=lambda t, T, A: 1 - 0.05 * A * np.clip((t / T - t0) / (1 - t0), 0, 1) ** 2), desc
+            return dict(gain=lambda t, T, A: 1 - 0.05 * A * np.clip((t / T - t0) / (1 - t0), 0, 1) ** 2, amax=8.0), desc
         k = rng.uniform(4.0, 7.0)  # variant 4: exponential, heavy at the end
         desc = f"exponential loss (e^({k:.1f} t/T) - 1)/(e^{k:.1f} - 1)"
-        return dict(gain=lambda t, T, A: 1 - 0.05 * A * (np.exp(k * t / T) - 1) / (math.exp(k) - 1)), desc
+        return dict(gain=lambda t, T, A: 1 - 0.05 * A * (np.exp(k * t / T) - 1) / (math.exp(k) - 1), amax=8.0), desc
 
     if name == "camera_bias":
         if variant == 0:
@@ -346,8 +353,8 @@ def make_effect(name, variant, rng, lab):
             iz = int(rng.integers(1, 4))
             ifr = int(rng.integers(1, 8))
             nf = int(rng.integers(1, 4))
-            zs = [Z_GRID[iz]]
-            fs = list(F_GRID[ifr:ifr + nf])
+            zs = [float(Z_GRID[iz])]
+            fs = [float(x) for x in F_GRID[ifr:ifr + nf]]
             sign = 1.0 if rng.uniform() < 0.7 else -1.0
 
             def box(z, f, A):
@@ -368,7 +375,7 @@ def make_effect(name, variant, rng, lab):
         # variant 2: an aspect flip at a 2x2 patch (r1 up, r2 down: a transient vortex state)
         iz = int(rng.integers(0, 4))
         ifr = int(rng.integers(0, 9))
-        zs, fs = list(Z_GRID[iz:iz + 2]), list(F_GRID[ifr:ifr + 2])
+        zs, fs = [float(x) for x in Z_GRID[iz:iz + 2]], [float(x) for x in F_GRID[ifr:ifr + 2]]
 
         def flip(z, f, A):
             m = np.isin(z, zs) & np.isin(f, fs)
@@ -447,24 +454,80 @@ def add_noise(sim, lab, rng):
     return out
 
 
-def calibrate(holds, T, lab, effects, hooks_idx, strength, base):
-    """Amplitude of effects[hooks_idx] so that max |noise-free - baseline| = strength * visit SD
-    (the SD of the axis it moves most)."""
+FREE = ("C1", "C2", "aK1", "aK2", "al1", "al2", "N", "q")  # what a user's identification moves
+
+
+def imitate(holds, values, lab):
+    """The baseline's best imitation of settled values (the last row of each hold): a
+    Levenberg-Marquardt fit of the seed's free parameters (C_i, a_K,i, alpha_i, N, q) of this
+    lab's own map, in units of the visit noise. Returns the residual (n_holds, 2) in mm."""
+    z = np.array([h["z"] for h in holds])
+    f = np.array([h["f"] for h in holds])
+    sv = np.array(lab["sv"])
+    lab2 = dict(lab, par=dict(lab["par"]))
+    th = np.array([lab["par"][k] for k in FREE])
+
+    def res(theta):
+        for k, v in zip(FREE, theta):
+            lab2["par"][k] = v
+        r1, r2 = steady(z, f, lab2)
+        return ((values - np.stack([r1, r2], 1)) / sv).ravel()
+
+    np.seterr(over="ignore", invalid="ignore")
+    r = res(th)
+    lam = 1e-3
+    for _ in range(30):
+        J = np.empty((r.size, th.size))
+        for j in range(th.size):
+            h = 1e-6 * max(abs(th[j]), 1e-2)
+            tp = th.copy(); tp[j] += h
+            J[:, j] = (res(tp) - r) / h
+        g = J.T @ r
+        H = J.T @ J
+        while True:
+            step = np.linalg.solve(H + lam * np.diag(np.diag(H) + 1e-12), -g)
+            r_new = res(th + step)
+            if r_new @ r_new < r @ r:
+                th, r, lam = th + step, r_new, lam * 0.3
+                break
+            lam *= 10
+            if lam > 1e8:
+                break
+        if lam > 1e8 or np.linalg.norm(step) < 1e-9 * (1 + np.linalg.norm(th)):
+            break
+    return r.reshape(-1, 2) * sv
+
+
+def last_rows(sim):
+    last = np.r_[np.nonzero(np.diff(sim["hold"]))[0], len(sim["hold"]) - 1]
+    return np.stack([sim["r1"][last], sim["r2"][last]], 1)
+
+
+def calibrate(holds, T, lab, effects, hooks_idx, strength, base, absorb=True):
+    """Amplitude of effects[hooks_idx] so that its strength is `strength` visit-noise SDs.
+    Strength: the largest deviation of the noise-free log from the baseline's best imitation of
+    it (absorb=True: static and drift effects; the seed's free parameters refitted to the
+    settled values), else from this lab's baseline (transients), in units of the visit SD of
+    each axis, the larger of the two axes."""
     e = effects[hooks_idx]
     amax = e.get("amax", 50.0)
+    sv = np.array(lab["sv"])
 
     def dev(A):
         amps = [0.0] * len(effects)
         amps[hooks_idx] = A
         sim = simulate(holds, T, lab, effects, amps)
-        d1 = np.max(np.abs(sim["r1"] - base["r1"])) / lab["sv"][0]
-        d2 = np.max(np.abs(sim["r2"] - base["r2"])) / lab["sv"][1]
+        if absorb:
+            return float(np.max(np.abs(imitate(holds, last_rows(sim), lab)) / sv))
+        d1 = np.max(np.abs(sim["r1"] - base["r1"])) / sv[0]
+        d2 = np.max(np.abs(sim["r2"] - base["r2"])) / sv[1]
         return max(d1, d2)
 
-    if dev(amax) < strength:
-        return amax, dev(amax)
+    top = dev(amax)
+    if top < strength:
+        return amax, top
     lo, hi = 0.0, amax
-    for _ in range(26):
+    for _ in range(22):
         mid = 0.5 * (lo + hi)
         if dev(mid) < strength:
             lo = mid
@@ -526,11 +589,13 @@ def build_scenario(kind, names, protocol, srange, fixed, seed, k, out):
     lab = draw_lab(rng)
     if protocol is None:
         if any(n == "formation_lag" for n in names):
-            protocol = ["steps", "single", "twice"][(seed + k) % 3]
+            protocol = ["steps", "single"][(seed + k) % 2]
         else:
             protocol = ["single", "twice", "steps"][(seed + k) % 3]
-    short = protocol != "steps" and (any(n == "formation_lag" for n in names) or rng.uniform() < 0.3)
-    holds, T = protocol_rows(protocol, rng, lab, short_wait=short)
+    # rows soon after each change only where the transient is the point (formation lag)
+    short = protocol != "steps" and any(n == "formation_lag" for n in names)
+    holds, T = protocol_rows(protocol, rng, lab, short_wait=short,
+                             sweep_ok="particle_drift" not in names)
     wh = withheld_holds(protocol, rng, lab, T)
     effects, descs, variants = [], [], []
     for j, n in enumerate(names):
@@ -548,7 +613,7 @@ def build_scenario(kind, names, protocol, srange, fixed, seed, k, out):
     for j, n in enumerate(names):
         target = float(rng.uniform(*srange))
         only = [effects[j]]
-        A, st = calibrate(holds, T, lab, only, 0, target, base)
+        A, st = calibrate(holds, T, lab, only, 0, target, base, absorb=(n != "formation_lag"))
         amps.append(A); strengths.append(st)
         sim_j = simulate(holds, T, lab, only, [A])
         if n == "anomaly":
