@@ -650,23 +650,32 @@ def build_scenario(kind, names, protocol, srange, fixed, seed, k, out):
     )
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--out", required=True, type=pathlib.Path)
-    ap.add_argument("--only", default=None, help="comma-separated kinds (default: all)")
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    only = set(args.only.split(",")) if args.only else None
+def generate(seed: int, out: pathlib.Path, only=None, verbose=False) -> list[dict]:
+    """Writes the logs of the catalogue's kinds (all, or those in `only`) for `seed` into `out`
+    with their truth.json; returns the truth entries."""
+    out.mkdir(parents=True, exist_ok=True)
     truths = []
     for k, (kind, names, protocol, srange, fixed) in enumerate(CATALOGUE):
         if only and kind not in only:
             continue
-        truths.append(build_scenario(kind, names, protocol, srange, fixed, args.seed, k, args.out))
-        print(f"{truths[-1]['name']}: {truths[-1]['protocol']}, {truths[-1]['rows']} rows, "
-              f"strength {truths[-1]['strength']}, {'; '.join(truths[-1]['shapes']) or 'no effect'}")
-    with open(args.out / "truth.json", "w") as fh:
-        json.dump(dict(seed=args.seed, scenarios=truths), fh, indent=1)
+        truths.append(build_scenario(kind, names, protocol, srange, fixed, seed, k, out))
+        if verbose:
+            print(f"{truths[-1]['name']}: {truths[-1]['protocol']}, {truths[-1]['rows']} rows, "
+                  f"strength {truths[-1]['strength']}, {'; '.join(truths[-1]['shapes']) or 'no effect'}",
+                  flush=True)
+    with open(out / "truth.json", "w") as fh:
+        json.dump(dict(seed=seed, scenarios=truths), fh, indent=1)
+    return truths
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--out", required=True, type=pathlib.Path)
+    ap.add_argument("--only", default=None, help="comma-separated kinds (default: all); kinds: "
+                    + ", ".join(c[0] for c in CATALOGUE))
+    args = ap.parse_args(argv)
+    generate(args.seed, args.out, set(args.only.split(",")) if args.only else None, verbose=True)
 
 
 if __name__ == "__main__":
