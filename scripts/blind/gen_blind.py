@@ -108,10 +108,30 @@ def field(z_mm, lab):
     return B, gz, kxx, kyy
 
 
+_FIELD_CACHE: dict = {}
+
+
+def field_at(z_mm, lab):
+    """field() memoised per distance (a log visits a few distances many times)."""
+    z = np.asarray(z_mm, float)
+    key0 = (lab["Br"], lab["z_off_mm"], lab["lat_mm"], lab["lat_angle"], lab["radius_mm"])
+    uz, inv = np.unique(z, return_inverse=True)
+    vals = []
+    for zz in uz:
+        key = key0 + (float(zz),)
+        if key not in _FIELD_CACHE:
+            if len(_FIELD_CACHE) > 100000:
+                _FIELD_CACHE.clear()
+            _FIELD_CACHE[key] = tuple(float(np.ravel(v)[0]) for v in field(np.array([zz]), lab))
+        vals.append(_FIELD_CACHE[key])
+    arr = np.array(vals)[inv.ravel()].reshape(z.shape + (4,))
+    return arr[..., 0], arr[..., 1], arr[..., 2], arr[..., 3]
+
+
 def steady(z_mm, f_hz, lab, f_eff=None):
     """Steady radii (r1, r2) [mm] from the stiffness (7) and the map (5)-(6)."""
     p = lab["par"]
-    B, gz, kxx, kyy = field(z_mm, lab)
+    B, gz, kxx, kyy = field_at(z_mm, lab)
     f = np.asarray(f_hz, float) if f_eff is None else np.asarray(f_eff, float)
     w = np.abs(f) / p["fref"]
     inter = p["aP"] * (B / lab["B_ref"]) ** p["muP"] * (1 + np.log(1 + p["cP"] * w ** p["qP"]))
