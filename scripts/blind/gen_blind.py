@@ -641,7 +641,16 @@ def build_scenario(kind, names, protocol, srange, fixed, seed, k, out):
                                 f_hz=[effects[j]["place"][2], effects[j]["place"][3]]))
         elif AXIS[n]:
             key = dict(f="f_hz", z="z_m_mm", s="time_since_change_s", t="t_s")[AXIS[n]]
-            regions.append({key: region_of(sim_j, base, AXIS[n])})
+            reg = {key: region_of(sim_j, base, AXIS[n])}
+            if AXIS[n] in ("f", "z", "t"):
+                # where the part the baseline cannot imitate shows (the residual a method can see)
+                res = np.abs(imitate(holds, last_rows(sim_j), lab)) / np.array(lab["sv"])
+                mag = res.max(axis=1)
+                last = np.r_[np.nonzero(np.diff(sim_j["hold"]))[0], len(sim_j["hold"]) - 1]
+                ax = sim_j[AXIS[n]][last]
+                m = mag >= 0.5 * mag.max()
+                reg["unabsorbed_" + key] = [float(ax[m].min()), float(ax[m].max())]
+            regions.append(reg)
         else:
             regions.append(None)
     clean = simulate(holds, T, lab, effects, amps)
