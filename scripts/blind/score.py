@@ -57,7 +57,7 @@ def read_csv(path):
     return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]} if rows else {}
 
 
-def run_one(scn: dict, logdir: pathlib.Path, outroot: pathlib.Path, extra: list[str]) -> dict:
+def run_one(scn: dict, logdir: pathlib.Path, outroot: pathlib.Path, extra: list[str], reuse: bool = False) -> dict:
     name = scn["name"]
     out = outroot / name
     out.mkdir(parents=True, exist_ok=True)
@@ -66,7 +66,10 @@ def run_one(scn: dict, logdir: pathlib.Path, outroot: pathlib.Path, extra: list[
     t0 = time.time()
     cmd = [str(binary()), "diagnose", "--log", str(logdir / f"{name}.csv"),
            "--withheld", str(logdir / f"{name}.withheld.csv"), "--out", str(out)] + extra
-    p = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    if reuse and (out / "report.json").is_file():
+        p = subprocess.CompletedProcess(cmd, 0, "", "")
+    else:
+        p = subprocess.run(cmd, capture_output=True, text=True, env=env)
     res = dict(scn=scn, elapsed=time.time() - t0, rc=p.returncode, stderr=p.stderr[-2000:])
     if p.returncode != 0:
         return res
@@ -204,6 +207,28 @@ def table(scores):
     return "\n".join(lines)
 
 
+def summary(scores):
+    eff = [s for s in scores if s["truth"] == "effect"]
+    nul = [s for s in scores if s["truth"] == "null"]
+    ano = [s for s in scores if s["truth"] == "anomaly"]
+    pct = lambda a, b: f"{a} / {b} ({100 * a / b:.0f} %)" if b else "-"
+    shr = sorted(s["shrink"] for s in eff if s.get("name_ok") and s.get("measurable") and s.get("shrink") is not None)
+    q = lambda p: f"{100 * shr[min(len(shr) - 1, int(p * len(shr)))]:.0f} %" if shr else "-"
+    # the written model against the report's own figure
+    worse = [s["name"] for s in eff if s.get("named") and s.get("shrink") is not None and s.get("report_excess") is not None
+             and s["shrink"] < s["report_excess"] - 0.3]
+    rows = [
+        ("effect logs: right name first (both, in two-effect logs)", pct(sum(1 for s in eff if s.get("name_ok")), len(eff))),
+        ("effect logs: fully right (name, region, >= 50 % of the withheld excess removed)", pct(sum(1 for s in eff if s["outcome"] == "right"), len(eff))),
+        ("effect logs: a wrong name first / nothing named", f"{sum(1 for s in eff if s['outcome'] == 'wrong')} / {sum(1 for s in eff if s['outcome'] in ('nothing', 'unexplained'))}"),
+        ("null logs with a name (false claims)", pct(sum(1 for s in nul if s.get("named")), len(nul))),
+        ("anomalies reported unexplained at their place", pct(sum(1 for s in ano if s["outcome"] == "right"), len(ano))),
+        ("shrink of right names (10 % / 25 % / median / 75 % / 90 %)", " / ".join(q(p) for p in (0.1, 0.25, 0.5, 0.75, 0.9))),
+        ("named logs whose augmented.json (in predict) removes > 30 points less than the report's excess_removed", f"{len(worse)}: {', '.join(worse) or '-'}"),
+    ]
+    return "| measure | value |\n|---|---|\n" + "\n".join(f"| {a} | {b} |" for a, b in rows)
+
+
 def detail(scores):
     lines = ["| scenario | protocol | strength | named | unexpl. | gap p | shrink | outcome | top candidates (gain, p) |",
              "|---|---|---|---|---|---|---|---|---|"]
@@ -224,6 +249,7 @@ def main(argv=None):
     ap.add_argument("--md", type=pathlib.Path, default=None, help="write the tables to this markdown file")
     ap.add_argument("--json", type=pathlib.Path, default=None, help="write per-scenario scores as JSON")
     ap.add_argument("--only", default=None, help="comma-separated kinds")
+    ap.add_argument("--reuse", action="store_true", help="score existing report.json files again (no diagnose run)")
     ap.add_argument("--diagnose-args", default="", help="extra arguments for diagnose, e.g. '--seed 2'")
     args = ap.parse_args(argv)
     if not binary().is_file():
@@ -238,7 +264,7 @@ def main(argv=None):
     t0 = time.time()
     scores = []
     with cf.ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as ex:
-        futs = {ex.submit(run_one, scn, d, o, args.diagnose_args.split()): scn for scn, d, o in jobs}
+        futs = {ex.submit(run_one, scn, d, o, args.diagnose_args.split(), args.reuse): scn for scn, d, o in jobs}
         for f in cf.as_completed(futs):
             s = score(f.result())
             scores.append(s)
@@ -246,8 +272,8 @@ def main(argv=None):
     scores.sort(key=lambda s: s["name"])
     wall = time.time() - t0
     text = (f"{len(scores)} logs from {', '.join(str(d) for d in args.dirs)}, diagnosed in {wall:.0f} s wall "
-            f"({args.jobs} at a time).\n\n" + table(scores) + "\n\nPer scenario:\n\n" + detail(scores) + "\n")
-    print("\n" + table(scores))
+            f"({args.jobs} at a time).\n\n" + table(scores) + "\n\n" + summary(scores) + "\n\nPer scenario:\n\n" + detail(scores) + "\n")
+    print("\n" + table(scores) + "\n\n" + summary(scores))
     if args.md:
         args.md.write_text(text)
     if args.json:
