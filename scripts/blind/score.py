@@ -226,6 +226,10 @@ def summary(scores):
         ("shrink of right names (10 % / 25 % / median / 75 % / 90 %)", " / ".join(q(p) for p in (0.1, 0.25, 0.5, 0.75, 0.9))),
         ("named logs whose augmented.json (in predict) removes > 30 points less than the report's excess_removed", f"{len(worse)}: {', '.join(worse) or '-'}"),
     ]
+    for proto in sorted({s["protocol"] for s in eff}):
+        ps = [s for s in eff if s["protocol"] == proto]
+        rows.append((f"effect logs on protocol `{proto}`: right name / fully right",
+                     f"{sum(1 for s in ps if s.get('name_ok'))} / {sum(1 for s in ps if s['outcome'] == 'right')} of {len(ps)}"))
     return "| measure | value |\n|---|---|\n" + "\n".join(f"| {a} | {b} |" for a, b in rows)
 
 
