@@ -191,6 +191,20 @@ impl MagSwarm {
         }
     }
 
+    /// Why the plant could not be stepped, with the inputs and where they stand.
+    #[cold]
+    #[inline(never)]
+    fn step_error(&mut self, e: magswarm_model::StepError) -> ModelError {
+        let (z, w) = (self.z_m, self.omega);
+        let validity = self.plant().validity();
+        ModelError::error(format!(
+            "ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
+            z * 1e3,
+            w.abs() / std::f64::consts::TAU,
+            validity.describe()
+        ))
+    }
+
     /// After a step: every output finite, checking the input-dependent ones (and the
     /// envelope) only when the inputs changed since the last check.
     fn check_after_step(&mut self) -> Result<(), ModelError> {
@@ -211,26 +225,20 @@ impl MagSwarm {
     /// Every output finite, or an error naming the inputs: an importer must never read NaN
     /// or inf after a call that returned OK or Warning.
     fn check_outputs(&mut self) -> Result<(), ModelError> {
+        // One test on the path of every input change; the names are only looked for when
+        // it fails.
+        if self.plant().outputs_finite() {
+            return Ok(());
+        }
+        self.name_non_finite_output()
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn name_non_finite_output(&mut self) -> Result<(), ModelError> {
         let (z, w) = (self.z_m, self.omega);
         let o = self.plant().outputs();
         let sp = &o.steady;
-        // x * 0 is 0 for every finite x and NaN otherwise: one sum, no branches, on the path
-        // of every input change; the names are only looked for when it fails.
-        let probe = [
-            o.r1,
-            o.r2,
-            sp.r1,
-            sp.r2,
-            sp.s_x,
-            sp.s_y,
-            sp.field.b,
-            sp.field.g_z,
-            sp.field.k_xx,
-            sp.field.k_yy,
-        ];
-        if probe.iter().map(|x| x * 0.0).sum::<f64>() == 0.0 {
-            return Ok(());
-        }
         let all = [
             ("r1", o.r1),
             ("r2", o.r2),
@@ -338,21 +346,20 @@ impl FmuModel for MagSwarm {
     }
 
     fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
-        if [self.z_m.to_bits(), self.omega.to_bits()] != self.checked {
+        let unchanged = [self.z_m.to_bits(), self.omega.to_bits()] == self.checked;
+        if !unchanged {
             self.check_envelope(ctx);
         }
-        let (z, w) = (self.z_m, self.omega);
         let plant = self.plant();
         // The plant's clock is the FMU's (time-dependent effects such as particle drift).
         plant.set_time(current_time);
-        plant.step(step).map_err(|e| {
-            ModelError::error(format!(
-                "ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
-                z * 1e3,
-                w.abs() / std::f64::consts::TAU,
-                plant.validity().describe()
-            ))
-        })?;
+        if let Err(e) = plant.step(step) {
+            return Err(self.step_error(e));
+        }
+        // Same inputs as at the last check: only the radii moved (the common case, inline).
+        if unchanged && self.plant().observed_radii().iter().all(|r| r.is_finite()) {
+            return Ok(());
+        }
         self.check_after_step()
     }
 

@@ -62,11 +62,34 @@ impl PartialEq for TermsId {
 }
 
 impl TermsId {
+    /// A fresh id. Each thread takes blocks of [`TermsId::BLOCK`] ids from a global counter
+    /// and hands them out one by one, so an input change costs a thread-local increment
+    /// rather than an atomic read-modify-write (a locked instruction that stalls the
+    /// pipeline, about a seventh of [`InputTerms::new`]); ids stay unique process-wide.
+    #[inline]
     fn fresh() -> TermsId {
+        use std::cell::Cell;
         use std::sync::atomic::{AtomicU64, Ordering};
-        static NEXT: AtomicU64 = AtomicU64::new(1);
-        TermsId(NEXT.fetch_add(1, Ordering::Relaxed))
+        static BLOCKS: AtomicU64 = AtomicU64::new(0);
+        thread_local! {
+            /// (next id, end of this thread's block); (0, 0) before the first block.
+            static RANGE: Cell<(u64, u64)> = const { Cell::new((0, 0)) };
+        }
+        RANGE.with(|r| {
+            let (mut next, mut end) = r.get();
+            if next == end {
+                // Block b holds ids b * BLOCK + 1 ..= (b + 1) * BLOCK (0 is never an id).
+                let b = BLOCKS.fetch_add(1, Ordering::Relaxed);
+                next = b * Self::BLOCK + 1;
+                end = next + Self::BLOCK;
+            }
+            r.set((next + 1, end));
+            TermsId(next)
+        })
     }
+
+    /// Ids a thread takes from the global counter at a time.
+    const BLOCK: u64 = 1 << 16;
 }
 
 impl InputTerms {
@@ -132,12 +155,15 @@ impl InputTerms {
                 continue;
             }
             self.k_b[i] = kb;
+            // The derivatives only feed Jacobians: one division for both (the gain itself
+            // stays an exact quotient, it drives the trajectory).
+            let inv_den = 1.0 / den;
+            let gap_b1 = d.beta * pow_int_or_real(gap, d.beta - 1.0);
             for j in 0..2 {
                 let dprod = sp.jac[0][j] * rs[1] + rs[0] * sp.jac[1][j];
                 let dnum = self.de0[j] * prod + self.e0 * dprod - kd[i] * sp.jac[i][j];
-                let dden = sp.ds[i][j] * gap_b
-                    + s[i] * d.beta * pow_int_or_real(gap, d.beta - 1.0) * sp.jac[i][j];
-                self.dk_b[i][j] = (dnum - kb * dden) / den;
+                let dden = sp.ds[i][j] * gap_b + s[i] * gap_b1 * sp.jac[i][j];
+                self.dk_b[i][j] = (dnum - kb * dden) * inv_den;
             }
         }
     }

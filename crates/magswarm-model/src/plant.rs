@@ -376,7 +376,22 @@ impl Plant {
 
     /// Advance the state by `h` seconds under the current inputs. On error the state is left
     /// as it was, so a caller may retry with a smaller step.
+    #[inline]
     pub fn step(&mut self, h: f64) -> Result<(), StepError> {
+        // A formed swarm at rest: the whole step replayed in O(1), inlined into the caller.
+        if self.stepper.replay(&self.terms, &self.r, h, &self.tol) {
+            self.t += h;
+            if self.model.effects.formation_lag.is_some() {
+                self.propagate_formation(h);
+            }
+            return Ok(());
+        }
+        self.integrate(h)
+    }
+
+    /// [`Plant::step`] when the step has to be integrated.
+    #[inline(never)]
+    fn integrate(&mut self, h: f64) -> Result<(), StepError> {
         let mut y = self.r;
         // Only these three change on a failed step (the rest memo holds facts either way);
         // saving them instead of the whole stepper keeps the hot path free of copies.
@@ -398,13 +413,18 @@ impl Plant {
         }
         self.r = y;
         self.t += h;
+        self.propagate_formation(h);
+        Ok(())
+    }
+
+    /// Advance the slow formation mode of `formation_lag` (if on) by `h` seconds.
+    fn propagate_formation(&mut self, h: f64) {
         if let Some(fl) = &self.model.effects.formation_lag {
             let target = self.terms.steady.radii();
             let a = fl.propagate([self.form[0], self.form[1]], target[0], h);
             let b = fl.propagate([self.form[2], self.form[3]], target[1], h);
             self.form = [a[0], a[1], b[0], b[1]];
         }
-        Ok(())
     }
 
     /// Physical footprint radii \[mm\] before the measurement effects: the ODE (4) state, or,
@@ -428,6 +448,37 @@ impl Plant {
         }
         let o = self.outputs();
         [o.r1, o.r2]
+    }
+
+    /// Whether every number of [`Plant::outputs`] that an FMU reports (radii, steady radii,
+    /// stiffness, field) is finite, without copying the steady point when no effect is on
+    /// (the check of every input change).
+    #[inline]
+    pub fn outputs_finite(&self) -> bool {
+        let probe = |r: [f64; 2], sp: &SteadyPoint| {
+            // x * 0 is 0 for every finite x and NaN otherwise: one sum, no branches.
+            [
+                r[0],
+                r[1],
+                sp.r1,
+                sp.r2,
+                sp.s_x,
+                sp.s_y,
+                sp.field.b,
+                sp.field.g_z,
+                sp.field.k_xx,
+                sp.field.k_yy,
+            ]
+            .iter()
+            .map(|x| x * 0.0)
+            .sum::<f64>()
+                == 0.0
+        };
+        if self.plain {
+            return probe(self.r, &self.terms.steady);
+        }
+        let o = self.outputs();
+        probe([o.r1, o.r2], &o.steady)
     }
 
     /// Outputs at the current instant (every enabled effect applied).
