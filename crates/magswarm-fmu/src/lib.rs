@@ -27,8 +27,14 @@ use magswarm_fmi::{
     Ctx, DefaultExperiment, FmiVersion, FmuModel, InstantiateArgs, LogCategory, ModelError,
     ModelInfo, Start, UnitDefinition, Variable,
 };
+use magswarm_model::maptable::MapTable;
 use magswarm_model::{Confinement, Model, Plant, PlantSnapshot};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Input changes after which the plant evaluates its steady map from tables (building them
+/// takes about 10 ms; an input change then costs a third).
+const MAP_TABLE_AFTER: u32 = 256;
 
 /// `checked` before anything was checked (bits no input has: a NaN's).
 const UNCHECKED: [u64; 2] = [u64::MAX; 2];
@@ -51,6 +57,9 @@ pub struct MagSwarm {
     rtol: Option<f64>,
     /// The plant, built from the parameters when outputs are first needed.
     plant: Option<Plant>,
+    /// The map table of the last plant built (a cache: a rebuilt plant of the same model
+    /// adopts it instead of building its own).
+    map: Option<Arc<MapTable>>,
     /// Inputs currently outside the envelope (one warning per excursion).
     outside: bool,
     /// The inputs (bits) whose envelope and input-dependent outputs were last checked: a step
@@ -118,6 +127,7 @@ impl MagSwarm {
             r_start: [0.005, 0.005],
             rtol: None,
             plant: None,
+            map: None,
             outside: false,
             checked: UNCHECKED,
         })
@@ -143,16 +153,26 @@ impl MagSwarm {
     #[cold]
     fn build_plant(&mut self) {
         let mut p = Plant::new(self.model.clone(), self.z_m, self.omega);
+        // Every input change evaluates the steady map: from tables (within their proven
+        // bound, docs/performance.md) once the plant has seen MAP_TABLE_AFTER changes (an
+        // instance that is stepped a few times never builds them), kept across rebuilds of
+        // the plant for the same model.
+        p.use_map_table_after(MAP_TABLE_AFTER, self.map.as_ref());
         if let Some(rtol) = self.rtol {
             p.tolerances_mut().rtol = rtol;
         }
-        if !self.settle_at_start {
+        if self.settle_at_start {
+            p.settle();
+        } else {
             p.set_state([self.r_start[0] * 1e3, self.r_start[1] * 1e3]);
         }
         self.plant = Some(p);
     }
 
     fn invalidate(&mut self) {
+        if let Some(t) = self.plant.as_ref().and_then(Plant::map_table) {
+            self.map = Some(t.clone());
+        }
         self.plant = None;
         self.checked = UNCHECKED;
     }
@@ -571,11 +591,21 @@ impl FmuModel for MagSwarm {
         s.model
             .validate()
             .map_err(|e| ModelError::error(format!("FMU state: model: {e}")))?;
+        // A map table already built for this model (by the plant in force or an earlier one).
+        let known = self
+            .plant
+            .as_ref()
+            .and_then(Plant::map_table)
+            .or(self.map.as_ref())
+            .cloned();
         let mut candidate = self.clone();
         candidate.plant = s
             .plant
             .as_ref()
-            .map(|snap| Plant::from_snapshot(s.model.clone(), snap));
+            .map(|snap| Plant::from_snapshot_sharing(s.model.clone(), snap, known.as_ref()));
+        if let Some(t) = candidate.plant.as_ref().and_then(Plant::map_table) {
+            candidate.map = Some(t.clone());
+        }
         candidate.model = s.model;
         candidate.model_file = s.model_file;
         candidate.z_m = s.z_m;

@@ -20,6 +20,7 @@
 //! The map scales as S^-alpha while (4)'s confinement is linear in S, so constant gains
 //! cannot do this (see `magswarm paper` for the best constant fit's error).
 
+use crate::maptable::MapTable;
 use crate::steady::{self, SteadyPoint};
 use crate::Model;
 
@@ -95,8 +96,17 @@ impl TermsId {
 impl InputTerms {
     /// Compute the coefficients of (4) for inputs (z_m \[m\], omega [rad/s]).
     pub fn new(model: &Model, z_m: f64, omega: f64) -> InputTerms {
+        Self::with_map(model, z_m, omega, None)
+    }
+
+    /// As [`InputTerms::new`], with the steady map from `map` (a [`MapTable`] built for
+    /// `model`: within its proven bound of the exact map) when given.
+    pub fn with_map(model: &Model, z_m: f64, omega: f64, map: Option<&MapTable>) -> InputTerms {
         let d = &model.dynamics;
-        let sp = steady::evaluate(model, z_m, omega);
+        let sp = match map {
+            Some(t) => t.evaluate(model, z_m, omega),
+            None => steady::evaluate(model, z_m, omega),
+        };
         let (w, dw) = steady::norm_freq(model, omega);
         // The swarm's rotation rate (|omega| unless the phase_lag effect makes it step out).
         let (w, dw, dw_dz) = steady::swarm_rate(model, w, dw, &sp.field);
