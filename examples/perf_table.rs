@@ -82,7 +82,12 @@ fn input_change_ns(calls: usize, map: Option<&MapTable>) -> f64 {
                 for _ in 0..calls {
                     k += 1;
                     let u = inputs(k as f64 * 1e-3);
-                    black_box(InputTerms::with_map(&m, black_box(u[0]), black_box(u[1]), map));
+                    black_box(InputTerms::with_map(
+                        &m,
+                        black_box(u[0]),
+                        black_box(u[1]),
+                        map,
+                    ));
                 }
                 t0.elapsed().as_nanos() as f64 / calls as f64
             })
@@ -213,7 +218,10 @@ fn map_table_bound(t: &MapTable) -> (f64, f64) {
             let Some(b) = t.bound(&m, z, w) else {
                 return (f64::INFINITY, f64::NAN);
             };
-            let (a, x) = (t.evaluate(&m, z, w), magswarm::model::steady::evaluate(&m, z, w));
+            let (a, x) = (
+                t.evaluate(&m, z, w),
+                magswarm::model::steady::evaluate(&m, z, w),
+            );
             bound = bound.max(b[0]).max(b[1]);
             seen = seen.max((a.r1 - x.r1).abs()).max((a.r2 - x.r2).abs());
         }

@@ -47,14 +47,12 @@
 
 use crate::steady::{self, SteadyPoint};
 use crate::Model;
+use std::sync::OnceLock;
 
 /// Cells per binade of the depth: 2^10 (its fourth derivatives reach 1e10 /m^4).
 const DEPTH_BITS: u32 = 10;
 /// Cells per binade of the frequency: 2^8.
 const FREQ_BITS: u32 = 8;
-/// Cells whose fifth derivative is enclosed in one interval evaluation (1: each cell on its
-/// own; wider groups overestimate it enough to fail the tolerance near d = 32 mm).
-const GROUP: usize = 1;
 /// Most cells per axis (a range of about 16 binades).
 const MAX_CELLS: u64 = 8192;
 
@@ -400,26 +398,21 @@ struct CellBound<const K: usize> {
     slope: [f64; K],
 }
 
-/// K functions of one positive variable over a range of cells.
+/// K functions of one positive variable over a range of cells, each cell built (nodes,
+/// coefficients, bound) the first time it is needed: a sweep pays for the cells it visits
+/// (about 20 us each), not for the whole range.
 #[derive(Debug, Clone)]
 struct Axis<const K: usize> {
     /// `x.to_bits() >> shift` of the first cell.
     base: u64,
     /// 52 - log2(cells per binade).
     shift: u32,
-    cells: Vec<Cell<K>>,
-    bounds: Vec<CellBound<K>>,
+    cells: Vec<OnceLock<(Cell<K>, CellBound<K>)>>,
 }
 
 impl<const K: usize> Axis<K> {
-    /// Tabulate `f` over [x_lo, x_hi] (both positive, finite).
-    fn new(
-        bits: u32,
-        x_lo: f64,
-        x_hi: f64,
-        f64_f: impl Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
-        iv_f: impl Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
-    ) -> Option<Axis<K>> {
+    /// The cells of [x_lo, x_hi] (both positive, finite), none built yet.
+    fn new(bits: u32, x_lo: f64, x_hi: f64) -> Option<Axis<K>> {
         if !(x_lo > 0.0 && x_hi > x_lo && x_hi.is_finite() && x_lo.is_normal()) {
             return None;
         }
@@ -429,83 +422,111 @@ impl<const K: usize> Axis<K> {
         if end - base > MAX_CELLS {
             return None;
         }
-        let n = (end - base) as usize;
-        let edge = |i: usize| f64::from_bits((base + i as u64) << shift);
-        // Values and slopes at the n + 1 nodes.
-        let nodes: Vec<Option<[[f64; 2]; K]>> = (0..=n)
-            .map(|i| f64_f(Jet::var(edge(i))).map(|js| js.map(|j| [j.0[0], j.0[1]])))
-            .collect();
-        let mut cells = Vec::with_capacity(n);
-        let mut bounds = Vec::with_capacity(n);
-        for g0 in (0..n).step_by(GROUP) {
-            let g1 = (g0 + GROUP).min(n);
-            let enclosure = iv_f(Jet::var(Iv::new(edge(g0), edge(g1))));
-            for i in g0..g1 {
-                let mid = 0.5 * (edge(i) + edge(i + 1));
-                let at_mid = iv_f(Jet::var(Iv::new(mid, mid)));
-                let (a, b) = (edge(i), edge(i + 1));
-                let h = b - a;
-                let mut cell = Cell {
-                    lo: a,
-                    inv_h: 1.0 / h,
-                    ok: false,
-                    coef: [[0.0; 4]; K],
-                };
-                let mut bound = CellBound {
-                    value: [f64::INFINITY; K],
-                    slope: [f64::INFINITY; K],
-                };
-                if let (Some(na), Some(nb), Some(enc), Some(at)) =
-                    (nodes[i], nodes[i + 1], enclosure, at_mid)
-                {
-                    let mut ok = true;
-                    for k in 0..K {
-                        let (f0, f1) = (na[k][0], nb[k][0]);
-                        let (s0, s1) = (h * na[k][1], h * nb[k][1]);
-                        cell.coef[k] = [
-                            f0,
-                            s0,
-                            3.0 * (f1 - f0) - 2.0 * s0 - s1,
-                            2.0 * (f0 - f1) + s0 + s1,
-                        ];
-                        let m0 = enc[k].0[0].mag();
-                        let m1 = enc[k].0[1].mag();
-                        // On the cell |x - mid| <= h/2, so |f''''(x)| <= |f''''(mid)| +
-                        // h/2 max|f'''''| = 24 |c4(mid)| + 60 h |c5| (Taylor about mid).
-                        let m4 = 24.0 * at[k].0[4].mag() + 60.0 * h * enc[k].0[5].mag();
-                        let eps = f64::EPSILON;
-                        let v = h.powi(4) / 384.0 * m4 + 64.0 * eps * m0;
-                        let s = 3f64.sqrt() / 216.0 * h.powi(3) * m4 + 64.0 * eps * (m0 / h + m1);
-                        bound.value[k] = v;
-                        bound.slope[k] = s;
-                        ok &= v.is_finite()
-                            && s.is_finite()
-                            && v <= 1e-11 * m0.max(1.0)
-                            && s <= 1e-6 * (m1 + m0 / a);
-                    }
-                    cell.ok = ok;
-                }
-                cells.push(cell);
-                bounds.push(bound);
-            }
-        }
         Some(Axis {
             base,
             shift,
-            cells,
-            bounds,
+            cells: (base..end).map(|_| OnceLock::new()).collect(),
         })
     }
 
-    /// The cell holding x, if tabulated and interpolated.
+    /// The left end of cell i (and the right end of cell i - 1).
+    fn edge(&self, i: usize) -> f64 {
+        f64::from_bits((self.base + i as u64) << self.shift)
+    }
+
+    /// Build cell `i` of `f` (written over f64 for the nodes, over intervals for the bound).
+    #[cold]
+    #[inline(never)]
+    fn build(
+        &self,
+        i: usize,
+        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
+        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
+    ) -> (Cell<K>, CellBound<K>) {
+        let (a, b) = (self.edge(i), self.edge(i + 1));
+        let h = b - a;
+        let node = |x: f64| f64_f(Jet::var(x)).map(|js| js.map(|j| [j.0[0], j.0[1]]));
+        let mid = 0.5 * (a + b);
+        let mut cell = Cell {
+            lo: a,
+            inv_h: 1.0 / h,
+            ok: false,
+            coef: [[0.0; 4]; K],
+        };
+        let mut bound = CellBound {
+            value: [f64::INFINITY; K],
+            slope: [f64::INFINITY; K],
+        };
+        let parts = (
+            node(a),
+            node(b),
+            iv_f(Jet::var(Iv::new(a, b))),
+            iv_f(Jet::var(Iv::new(mid, mid))),
+        );
+        if let (Some(na), Some(nb), Some(enc), Some(at)) = parts {
+            let mut ok = true;
+            for k in 0..K {
+                let (f0, f1) = (na[k][0], nb[k][0]);
+                let (s0, s1) = (h * na[k][1], h * nb[k][1]);
+                cell.coef[k] = [
+                    f0,
+                    s0,
+                    3.0 * (f1 - f0) - 2.0 * s0 - s1,
+                    2.0 * (f0 - f1) + s0 + s1,
+                ];
+                let m0 = enc[k].0[0].mag();
+                let m1 = enc[k].0[1].mag();
+                // On the cell |x - mid| <= h/2, so |f''''(x)| <= |f''''(mid)| +
+                // h/2 max|f'''''| = 24 |c4(mid)| + 60 h |c5| (Taylor about mid).
+                let m4 = 24.0 * at[k].0[4].mag() + 60.0 * h * enc[k].0[5].mag();
+                let eps = f64::EPSILON;
+                let v = h.powi(4) / 384.0 * m4 + 64.0 * eps * m0;
+                let sl = 3f64.sqrt() / 216.0 * h.powi(3) * m4 + 64.0 * eps * (m0 / h + m1);
+                bound.value[k] = v;
+                bound.slope[k] = sl;
+                ok &= v.is_finite()
+                    && sl.is_finite()
+                    && v <= 1e-11 * m0.max(1.0)
+                    && sl <= 1e-6 * (m1 + m0 / a);
+            }
+            cell.ok = ok;
+        }
+        (cell, bound)
+    }
+
+    /// The cell holding x (built now if it was not), if tabulated and interpolated.
     #[inline]
-    fn cell(&self, x: f64) -> Option<(usize, &Cell<K>)> {
+    fn cell(
+        &self,
+        x: f64,
+        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
+        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
+    ) -> Option<(usize, &(Cell<K>, CellBound<K>))> {
         // Negative x, NaN and infinities index far past the end.
         let i = (x.to_bits() >> self.shift).wrapping_sub(self.base) as usize;
-        match self.cells.get(i) {
-            Some(c) if c.ok => Some((i, c)),
-            _ => None,
-        }
+        let slot = self.cells.get(i)?;
+        let c = match slot.get() {
+            Some(c) => c,
+            None => slot.get_or_init(|| self.build(i, f64_f, iv_f)),
+        };
+        c.0.ok.then_some((i, c))
+    }
+
+    /// Build every cell; (cells, interpolated).
+    fn build_all(
+        &self,
+        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
+        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
+    ) -> [usize; 2] {
+        let ok = (0..self.cells.len())
+            .filter(|&i| {
+                self.cells[i]
+                    .get_or_init(|| self.build(i, f64_f, iv_f))
+                    .0
+                    .ok
+            })
+            .count();
+        [self.cells.len(), ok]
     }
 }
 
@@ -549,6 +570,8 @@ impl Key {
 #[derive(Debug, Clone)]
 pub struct MapTable {
     key: Key,
+    /// The model the cells are built from (its map's parameters).
+    model: Model,
     depth: Axis<3>,
     freq: Axis<2>,
 }
@@ -565,7 +588,8 @@ pub fn tabulable(model: &Model) -> bool {
 impl MapTable {
     /// The tables of `model`'s map over its envelope widened by half its span in z_m and from
     /// f_min / 2 to 2 f_max; `None` when an effect acts on the map ([`tabulable`]) or the
-    /// range is degenerate. Takes a few milliseconds.
+    /// range is degenerate. Cells are built on first use (about 20 us each in a release
+    /// build), so this is quick and a sweep pays for the cells it visits.
     pub fn new(model: &Model) -> Option<MapTable> {
         if !tabulable(model) {
             return None;
@@ -576,27 +600,34 @@ impl MapTable {
         let z_lo = (e.z_min_m - 0.5 * span).max(floor + 0.1 * model.magnet.radius_m);
         let z_hi = e.z_max_m + 0.5 * span;
         let (d_lo, d_hi) = (model.magnet.depth(z_lo), model.magnet.depth(z_hi));
-        let depth = Axis::new(
-            DEPTH_BITS,
-            d_lo,
-            d_hi,
-            |d| depth_part(model, d),
-            |d| depth_part(model, d),
-        )?;
+        let depth = Axis::new(DEPTH_BITS, d_lo, d_hi)?;
         let f_ref = model.steady.f_ref;
         let (w_lo, w_hi) = (0.5 * e.f_min_hz.max(0.05) / f_ref, 2.0 * e.f_max_hz / f_ref);
-        let freq = Axis::new(
-            FREQ_BITS,
-            w_lo,
-            w_hi,
-            |w| frequency_part(model, w),
-            |w| frequency_part(model, w),
-        )?;
+        let freq = Axis::new(FREQ_BITS, w_lo, w_hi)?;
         Some(MapTable {
             key: Key::of(model),
+            model: model.clone(),
             depth,
             freq,
         })
+    }
+
+    /// The depth cell holding d (built if needed), if interpolated.
+    #[inline]
+    fn depth_cell(&self, d: f64) -> Option<&(Cell<3>, CellBound<3>)> {
+        let m = &self.model;
+        self.depth
+            .cell(d, &|j| depth_part(m, j), &|j| depth_part(m, j))
+            .map(|(_, c)| c)
+    }
+
+    /// The frequency cell holding w (built if needed), if interpolated.
+    #[inline]
+    fn freq_cell(&self, w: f64) -> Option<&(Cell<2>, CellBound<2>)> {
+        let m = &self.model;
+        self.freq
+            .cell(w, &|j| frequency_part(m, j), &|j| frequency_part(m, j))
+            .map(|(_, c)| c)
     }
 
     /// Whether this table was built for `model`'s map.
@@ -618,8 +649,8 @@ impl MapTable {
         let c = &model.conventions;
         let d = model.magnet.depth(z_m);
         let (w, dw) = steady::norm_freq(model, omega);
-        let (_, zc) = self.depth.cell(d)?;
-        let (_, wc) = self.freq.cell(w)?;
+        let zc = &self.depth_cell(d)?.0;
+        let wc = &self.freq_cell(w)?.0;
         let [(gx, dgx), (gy, dgy), (part, dpart)] = zc.eval(d);
         let [(l, dl), (phi, dphi)] = wc.eval(w);
         let pl = part * l;
@@ -666,11 +697,11 @@ impl MapTable {
         let sp = self.interpolate(model, z_m, omega)?;
         let d = model.magnet.depth(z_m);
         let (w, _) = steady::norm_freq(model, omega);
-        let (i, zc) = self.depth.cell(d)?;
-        let (j, wc) = self.freq.cell(w)?;
+        let (zc, zb) = self.depth_cell(d)?;
+        let (wc, wb) = self.freq_cell(w)?;
         let [_, _, (part, _)] = zc.eval(d);
         let [(l, _), (phi, _)] = wc.eval(w);
-        let (bz, bw) = (self.depth.bounds[i].value, self.freq.bounds[j].value);
+        let (bz, bw) = (zb.value, wb.value);
         let ds_common = bz[2] * l.abs() + (part.abs() + bz[2]) * bw[0];
         let p = &model.steady;
         let one = |r: f64, s: f64, dg: f64, alpha: f64| {
@@ -684,13 +715,14 @@ impl MapTable {
     }
 
     /// Cells (depth, frequency) and how many of them are interpolated (the rest are
-    /// evaluated exactly), for reports.
+    /// evaluated exactly), for reports: builds every cell (tens of milliseconds).
     pub fn coverage(&self) -> ([usize; 2], [usize; 2]) {
-        let ok = |c: &[Cell<3>]| c.iter().filter(|c| c.ok).count();
-        let okw = |c: &[Cell<2>]| c.iter().filter(|c| c.ok).count();
+        let m = &self.model;
         (
-            [self.depth.cells.len(), ok(&self.depth.cells)],
-            [self.freq.cells.len(), okw(&self.freq.cells)],
+            self.depth
+                .build_all(&|j| depth_part(m, j), &|j| depth_part(m, j)),
+            self.freq
+                .build_all(&|j| frequency_part(m, j), &|j| frequency_part(m, j)),
         )
     }
 }
