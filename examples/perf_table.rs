@@ -445,10 +445,14 @@ fn main() -> Result<()> {
         "reported".into(),
     ]);
     let ic = input_change_ns(calls, None);
-    let t0 = Instant::now();
     let table = MapTable::new(&Model::paper()).context("the paper model's map is tabulable")?;
-    let build = t0.elapsed().as_secs_f64();
     let ict = input_change_ns(calls, Some(&table));
+    // Every cell (a loop visits only its own): the time to prove the whole table.
+    let t0 = Instant::now();
+    let (zc, wc) = MapTable::new(&Model::paper())
+        .context("the paper model's map is tabulable")?
+        .coverage();
+    let build = t0.elapsed().as_secs_f64();
     t.row(&[
         "one input change: InputTerms::new (stiffness, map, scheduled gains): exact map / map table (what the FMU uses after 256 input changes)".into(),
         format!("{ic:.0} ns / {ict:.0} ns"),
@@ -462,11 +466,8 @@ fn main() -> Result<()> {
     ]);
 
     let (bound, observed) = map_table_bound(&table);
-    let (zc, wc) = table.coverage();
     t.row(&[
-        format!(
-            "map table of the paper model: build time; cells interpolated (depth, frequency); proven bound on r1, r2 over the envelope / largest difference from the exact map (401 x 361 points)"
-        ),
+        "map table of the paper model: every cell built and proven; cells interpolated (depth, frequency); proven bound on r1, r2 over the envelope / largest difference from the exact map (401 x 361 points)".into(),
         format!(
             "{:.1} ms; {}/{}, {}/{}; {bound:.1e} mm / {observed:.1e} mm",
             build * 1e3,
