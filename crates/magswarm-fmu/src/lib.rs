@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
 /// Input changes after which the plant evaluates its steady map from tables (an input change
-/// then costs about two thirds; each table cell costs about 20 us when first visited, which
+/// then costs about two thirds; each table cell costs about 5 us when first visited, which
 /// an instance stepped a few times should not pay).
 const MAP_TABLE_AFTER: u32 = 256;
 

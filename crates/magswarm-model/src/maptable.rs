@@ -400,7 +400,7 @@ struct CellBound<const K: usize> {
 
 /// K functions of one positive variable over a range of cells, each cell built (nodes,
 /// coefficients, bound) the first time it is needed: a sweep pays for the cells it visits
-/// (about 20 us each), not for the whole range.
+/// (about 5 us each in a release build), not for the whole range.
 #[derive(Debug, Clone)]
 struct Axis<const K: usize> {
     /// `x.to_bits() >> shift` of the first cell.
@@ -588,7 +588,7 @@ pub fn tabulable(model: &Model) -> bool {
 impl MapTable {
     /// The tables of `model`'s map over its envelope widened by half its span in z_m and from
     /// f_min / 2 to 2 f_max; `None` when an effect acts on the map ([`tabulable`]) or the
-    /// range is degenerate. Cells are built on first use (about 20 us each in a release
+    /// range is degenerate. Cells are built on first use (about 5 us each in a release
     /// build), so this is quick and a sweep pays for the cells it visits.
     pub fn new(model: &Model) -> Option<MapTable> {
         if !tabulable(model) {

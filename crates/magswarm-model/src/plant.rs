@@ -177,7 +177,7 @@ impl Plant {
     /// Evaluate the steady map from a [`MapTable`] (`on`) or exactly (the default). The table
     /// answers within its proven bound (below 1e-9 mm over the envelope, docs/performance.md)
     /// at a fraction of the cost of an input change; its cells are built the first time an
-    /// input falls in them (about 20 us each), so it pays for plants that see many input
+    /// input falls in them (about 5 us each in a release build), so it pays for plants that see many input
     /// changes (an FMU, a controller's model).
     /// Ignored (exact) while the model has an effect that acts on the map. The input terms in
     /// force are recomputed either way, so the plant's behaviour depends on the setting only.
