@@ -96,17 +96,26 @@ impl Table {
     pub fn typed(&self, vr: u32, ty: VarType) -> Result<&'static Variable, Refusal> {
         match self.get(vr) {
             Some(v) if v.ty == ty => Ok(v),
-            Some(v) => Err(Refusal(format!(
-                "value reference {vr} is variable \"{}\" of type {}, not {}",
-                v.name,
-                v.ty.as_str(),
-                ty.as_str()
-            ))),
-            None => Err(Refusal(format!(
-                "unknown value reference {vr} (no {} variable has it)",
-                ty.as_str()
-            ))),
+            other => Err(type_refusal(vr, ty, other)),
         }
+    }
+}
+
+/// Why [`Table::typed`] refused `vr` (out of line: only a refused call formats anything).
+#[cold]
+#[inline(never)]
+fn type_refusal(vr: u32, ty: VarType, found: Option<&Variable>) -> Refusal {
+    match found {
+        Some(v) => Refusal(format!(
+            "value reference {vr} is variable \"{}\" of type {}, not {}",
+            v.name,
+            v.ty.as_str(),
+            ty.as_str()
+        )),
+        None => Refusal(format!(
+            "unknown value reference {vr} (no {} variable has it)",
+            ty.as_str()
+        )),
     }
 }
 

@@ -151,6 +151,7 @@ impl Func {
     ];
 
     /// The optional group this function belongs to, with the XML attribute that declares it.
+    #[inline(always)]
     pub fn capability(self) -> Option<(Capability, &'static str)> {
         match self {
             Func::GetFmuState
@@ -168,6 +169,7 @@ impl Func {
 
     /// Whether the function belongs to Model Exchange only (refused on a Co-Simulation
     /// instance, whatever its state).
+    #[inline(always)]
     pub fn model_exchange_only(self) -> bool {
         matches!(
             self,
@@ -186,6 +188,7 @@ impl Func {
 
     /// Whether the function belongs to Co-Simulation only (refused on a Model Exchange
     /// instance, whatever its state).
+    #[inline(always)]
     pub fn co_simulation_only(self) -> bool {
         matches!(
             self,
@@ -217,6 +220,7 @@ impl Func {
     }
 
     /// Whether the standard allows this call in `mode` (the CS calling-sequence table).
+    #[inline(always)]
     pub fn allowed_in(self, mode: Mode) -> bool {
         use Mode::*;
         // Fatal: the instance may only be freed.

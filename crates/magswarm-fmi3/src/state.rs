@@ -32,6 +32,7 @@ macro_rules! funcs {
 
         impl Func {
     /// The optional group this function belongs to, with the XML attribute that declares it.
+    #[inline(always)]
     pub fn capability(self) -> Option<(Capability, &'static str)> {
         match self {
             Func::GetFmuState
@@ -59,6 +60,7 @@ macro_rules! funcs {
             }
 
             /// The interface the function belongs to.
+            #[inline(always)]
             pub fn interface(self) -> Belongs {
                 match self { $(Func::$v => Belongs::$belongs),* }
             }
@@ -166,6 +168,7 @@ impl Func {
     }
 
     /// Whether the standard allows this call in `mode`.
+    #[inline(always)]
     pub fn allowed_in(self, mode: Mode) -> bool {
         use Func as F;
         use Mode::*;

@@ -27,8 +27,15 @@ use magswarm_fmi::{
     Ctx, DefaultExperiment, FmiVersion, FmuModel, InstantiateArgs, LogCategory, ModelError,
     ModelInfo, Start, UnitDefinition, Variable,
 };
+use magswarm_model::maptable::MapTable;
 use magswarm_model::{Confinement, Model, Plant, PlantSnapshot};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// Input changes after which the plant evaluates its steady map from tables (an input change
+/// then costs about two thirds; each table cell costs about 5 us when first visited, which
+/// an instance stepped a few times should not pay).
+const MAP_TABLE_AFTER: u32 = 256;
 
 /// `checked` before anything was checked (bits no input has: a NaN's).
 const UNCHECKED: [u64; 2] = [u64::MAX; 2];
@@ -51,6 +58,9 @@ pub struct MagSwarm {
     rtol: Option<f64>,
     /// The plant, built from the parameters when outputs are first needed.
     plant: Option<Plant>,
+    /// The map table of the last plant built (a cache: a rebuilt plant of the same model
+    /// adopts it instead of building its own).
+    map: Option<Arc<MapTable>>,
     /// Inputs currently outside the envelope (one warning per excursion).
     outside: bool,
     /// The inputs (bits) whose envelope and input-dependent outputs were last checked: a step
@@ -118,6 +128,7 @@ impl MagSwarm {
             r_start: [0.005, 0.005],
             rtol: None,
             plant: None,
+            map: None,
             outside: false,
             checked: UNCHECKED,
         })
@@ -143,16 +154,26 @@ impl MagSwarm {
     #[cold]
     fn build_plant(&mut self) {
         let mut p = Plant::new(self.model.clone(), self.z_m, self.omega);
+        // Every input change evaluates the steady map: from tables (within their proven
+        // bound, docs/performance.md) once the plant has seen MAP_TABLE_AFTER changes (an
+        // instance that is stepped a few times never builds them), kept across rebuilds of
+        // the plant for the same model.
+        p.use_map_table_after(MAP_TABLE_AFTER, self.map.as_ref());
         if let Some(rtol) = self.rtol {
             p.tolerances_mut().rtol = rtol;
         }
-        if !self.settle_at_start {
+        if self.settle_at_start {
+            p.settle();
+        } else {
             p.set_state([self.r_start[0] * 1e3, self.r_start[1] * 1e3]);
         }
         self.plant = Some(p);
     }
 
     fn invalidate(&mut self) {
+        if let Some(t) = self.plant.as_ref().and_then(Plant::map_table) {
+            self.map = Some(t.clone());
+        }
         self.plant = None;
         self.checked = UNCHECKED;
     }
@@ -191,6 +212,20 @@ impl MagSwarm {
         }
     }
 
+    /// Why the plant could not be stepped, with the inputs and where they stand.
+    #[cold]
+    #[inline(never)]
+    fn step_error(&mut self, e: magswarm_model::StepError) -> ModelError {
+        let (z, w) = (self.z_m, self.omega);
+        let validity = self.plant().validity();
+        ModelError::error(format!(
+            "ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
+            z * 1e3,
+            w.abs() / std::f64::consts::TAU,
+            validity.describe()
+        ))
+    }
+
     /// After a step: every output finite, checking the input-dependent ones (and the
     /// envelope) only when the inputs changed since the last check.
     fn check_after_step(&mut self) -> Result<(), ModelError> {
@@ -211,26 +246,20 @@ impl MagSwarm {
     /// Every output finite, or an error naming the inputs: an importer must never read NaN
     /// or inf after a call that returned OK or Warning.
     fn check_outputs(&mut self) -> Result<(), ModelError> {
+        // One test on the path of every input change; the names are only looked for when
+        // it fails.
+        if self.plant().outputs_finite() {
+            return Ok(());
+        }
+        self.name_non_finite_output()
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn name_non_finite_output(&mut self) -> Result<(), ModelError> {
         let (z, w) = (self.z_m, self.omega);
         let o = self.plant().outputs();
         let sp = &o.steady;
-        // x * 0 is 0 for every finite x and NaN otherwise: one sum, no branches, on the path
-        // of every input change; the names are only looked for when it fails.
-        let probe = [
-            o.r1,
-            o.r2,
-            sp.r1,
-            sp.r2,
-            sp.s_x,
-            sp.s_y,
-            sp.field.b,
-            sp.field.g_z,
-            sp.field.k_xx,
-            sp.field.k_yy,
-        ];
-        if probe.iter().map(|x| x * 0.0).sum::<f64>() == 0.0 {
-            return Ok(());
-        }
         let all = [
             ("r1", o.r1),
             ("r2", o.r2),
@@ -338,21 +367,20 @@ impl FmuModel for MagSwarm {
     }
 
     fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
-        if [self.z_m.to_bits(), self.omega.to_bits()] != self.checked {
+        let unchanged = [self.z_m.to_bits(), self.omega.to_bits()] == self.checked;
+        if !unchanged {
             self.check_envelope(ctx);
         }
-        let (z, w) = (self.z_m, self.omega);
         let plant = self.plant();
         // The plant's clock is the FMU's (time-dependent effects such as particle drift).
         plant.set_time(current_time);
-        plant.step(step).map_err(|e| {
-            ModelError::error(format!(
-                "ODE (4) could not be integrated at z_m = {:.4} mm, f = {:.4} Hz ({}): {e}",
-                z * 1e3,
-                w.abs() / std::f64::consts::TAU,
-                plant.validity().describe()
-            ))
-        })?;
+        if let Err(e) = plant.step(step) {
+            return Err(self.step_error(e));
+        }
+        // Same inputs as at the last check: only the radii moved (the common case, inline).
+        if unchanged && self.plant().observed_radii().iter().all(|r| r.is_finite()) {
+            return Ok(());
+        }
         self.check_after_step()
     }
 
@@ -564,11 +592,21 @@ impl FmuModel for MagSwarm {
         s.model
             .validate()
             .map_err(|e| ModelError::error(format!("FMU state: model: {e}")))?;
+        // A map table already built for this model (by the plant in force or an earlier one).
+        let known = self
+            .plant
+            .as_ref()
+            .and_then(Plant::map_table)
+            .or(self.map.as_ref())
+            .cloned();
         let mut candidate = self.clone();
         candidate.plant = s
             .plant
             .as_ref()
-            .map(|snap| Plant::from_snapshot(s.model.clone(), snap));
+            .map(|snap| Plant::from_snapshot_sharing(s.model.clone(), snap, known.as_ref()));
+        if let Some(t) = candidate.plant.as_ref().and_then(Plant::map_table) {
+            candidate.map = Some(t.clone());
+        }
         candidate.model = s.model;
         candidate.model_file = s.model_file;
         candidate.z_m = s.z_m;

@@ -179,6 +179,33 @@ fn axpy(y: [f64; 2], k: &[[f64; 2]], a: &[f64], h: f64) -> [f64; 2] {
 }
 
 impl Stepper {
+    /// The communication step from `y` by `h_comm` under `terms`, if it is one remembered as
+    /// nothing but rest steps (see `CommStep`): apply its outcome (step counts, next step
+    /// size; `y` stays) and return true. Otherwise false, and nothing changed.
+    #[inline]
+    pub fn replay(
+        &mut self,
+        terms: &InputTerms,
+        y: &[f64; 2],
+        h_comm: f64,
+        tol: &Tolerances,
+    ) -> bool {
+        match &self.rest.1 {
+            Some(c)
+                if c.id == terms.id()
+                    && c.y == *y
+                    && c.h_in == self.h_next
+                    && c.h_comm == h_comm
+                    && c.tol == [tol.rtol, tol.atol, tol.h_max] =>
+            {
+                self.steps += c.d_steps;
+                self.h_next = c.h_out;
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// Advance `y` from `t` by `h_comm` seconds under constant inputs (`terms`).
     ///
     /// The right-hand side is autonomous between input changes (inputs are held over a
@@ -192,19 +219,10 @@ impl Stepper {
         h_comm: f64,
         tol: &Tolerances,
     ) -> Result<(), StepError> {
-        let tol_key = [tol.rtol, tol.atol, tol.h_max];
-        if let Some(c) = &self.rest.1 {
-            if c.id == terms.id()
-                && c.y == *y
-                && c.h_in == self.h_next
-                && c.h_comm == h_comm
-                && c.tol == tol_key
-            {
-                self.steps += c.d_steps;
-                self.h_next = c.h_out;
-                return Ok(());
-            }
+        if self.replay(terms, y, h_comm, tol) {
+            return Ok(());
         }
+        let tol_key = [tol.rtol, tol.atol, tol.h_max];
         let (y_in, h_in, steps_in, rejected_in) = (*y, self.h_next, self.steps, self.rejected);
         let mut all_rest = true;
         let f = |r: [f64; 2]| terms.rhs(model, r);

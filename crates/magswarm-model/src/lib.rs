@@ -34,6 +34,7 @@ pub mod fastpow;
 pub mod field;
 pub mod integrate;
 pub mod learned;
+pub mod maptable;
 pub mod model_file;
 pub mod params;
 pub mod plant;

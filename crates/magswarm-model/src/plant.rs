@@ -7,8 +7,10 @@
 
 use crate::dynamics::{InputTerms, KB_FLOOR};
 use crate::integrate::{StepError, Stepper, Tolerances};
+use crate::maptable::MapTable;
 use crate::steady::SteadyPoint;
 use crate::{Model, Validity};
+use std::sync::Arc;
 
 /// Inputs the model cannot evaluate at all (not merely outside the validated envelope):
 /// non-finite values, or a z_m that puts the swarm plane inside the magnet sphere.
@@ -70,6 +72,39 @@ pub struct Plant {
     change: [f64; 3],
     /// `model.effects.is_empty()`, kept beside the model (the hot path asks it per call).
     plain: bool,
+    /// The steady map from tables ([`Plant::use_map_table`]), if asked for and the model's
+    /// map is tabulable.
+    map: MapSlot,
+}
+
+/// The plant's [`MapTable`], shared between clones. Whether a plant uses one is part of its
+/// state (it decides the input terms, within the table's bound); the table itself is a
+/// deterministic function of the model, so equality ignores it.
+#[derive(Clone, Default)]
+struct MapSlot {
+    /// The table is in force (when the model's map is tabulable).
+    wanted: bool,
+    /// Input changes left before it comes into force (0: not scheduled).
+    pending: u32,
+    /// Built for, or adopted from a plant of, the current model; read only while `wanted`.
+    table: Option<Arc<MapTable>>,
+}
+
+impl PartialEq for MapSlot {
+    fn eq(&self, o: &MapSlot) -> bool {
+        (self.wanted, self.pending) == (o.wanted, o.pending)
+    }
+}
+
+impl std::fmt::Debug for MapSlot {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "MapSlot {{ wanted: {}, built: {} }}",
+            self.wanted,
+            self.table.is_some()
+        )
+    }
 }
 
 /// Everything a [`Plant`] carries besides its model: enough to rebuild it bit-identically
@@ -97,6 +132,14 @@ pub struct PlantSnapshot {
     /// since it (absent in a state written before them: no change).
     #[serde(default)]
     pub change: [f64; 3],
+    /// The plant evaluates its steady map from tables ([`Plant::use_map_table`]; absent in a
+    /// state written before them: no).
+    #[serde(default)]
+    pub map_table: bool,
+    /// Input changes left before the tables come into force ([`Plant::use_map_table_after`];
+    /// 0: none scheduled).
+    #[serde(default)]
+    pub map_pending: u32,
 }
 
 /// What the plant reports at one instant.
@@ -127,16 +170,75 @@ impl Plant {
             form: [r[0], 0.0, r[1], 0.0],
             change: [0.0; 3],
             plain,
+            map: MapSlot::default(),
         }
+    }
+
+    /// Evaluate the steady map from a [`MapTable`] (`on`) or exactly (the default). The table
+    /// answers within its proven bound (below 1e-9 mm over the envelope, docs/performance.md)
+    /// at a fraction of the cost of an input change; its cells are built the first time an
+    /// input falls in them (about 5 us each in a release build), so it pays for plants that see many input
+    /// changes (an FMU, a controller's model).
+    /// Ignored (exact) while the model has an effect that acts on the map. The input terms in
+    /// force are recomputed either way, so the plant's behaviour depends on the setting only.
+    pub fn use_map_table(&mut self, on: bool) {
+        self.map.wanted = on;
+        self.map.pending = 0;
+        self.refresh_map(None);
+    }
+
+    /// The map table from the `n`-th input change on (`n` = 0: now), so that a plant that
+    /// sees few changes never pays for building it. `table`, if it was built for this
+    /// plant's model (one kept from an earlier plant), is adopted then instead of building
+    /// one; it does not change when the table comes into force, so the plant's behaviour
+    /// depends on `n` and its inputs only.
+    pub fn use_map_table_after(&mut self, n: u32, table: Option<&Arc<MapTable>>) {
+        if let Some(t) = table.filter(|t| t.answers_for(&self.model)) {
+            self.map.table = Some(t.clone());
+        }
+        self.map.wanted = n == 0;
+        self.map.pending = n;
+        self.refresh_map(None);
+    }
+
+    /// The table built or adopted for this plant's model, if any (to hand to a later plant
+    /// of the same model).
+    pub fn map_table(&self) -> Option<&Arc<MapTable>> {
+        self.map.table.as_ref()
+    }
+
+    /// The table in force for the input terms.
+    fn map_in_force(&self) -> Option<&MapTable> {
+        self.map.table.as_deref().filter(|_| self.map.wanted)
+    }
+
+    /// Make the table match the wish and the model, and recompute the input terms.
+    fn refresh_map(&mut self, candidate: Option<&Arc<MapTable>>) {
+        let fits = |t: &Arc<MapTable>| t.answers_for(&self.model);
+        let kept = self.map.table.as_ref().filter(|t| fits(t)).cloned();
+        let needed = self.map.wanted && crate::maptable::tabulable(&self.model);
+        self.map.table = if !needed || kept.is_some() {
+            kept
+        } else if let Some(t) = candidate.filter(|t| fits(t)) {
+            Some(t.clone())
+        } else {
+            MapTable::new(&self.model).map(Arc::new)
+        };
+        self.terms = InputTerms::with_map(
+            &self.model,
+            self.terms.z_m,
+            self.terms.omega,
+            self.map_in_force(),
+        );
     }
 
     /// Replace the model, keeping the state, the time and the inputs (the coefficients of
     /// (4) are recomputed). For a plant whose parameters change during a run (a lab truth
     /// with a moving centroid, a shadow model updated by identification).
     pub fn set_model(&mut self, model: Model) {
-        self.terms = InputTerms::new(&model, self.terms.z_m, self.terms.omega);
         self.plain = model.effects.is_empty();
         self.model = model;
+        self.refresh_map(None);
     }
 
     /// The model in use.
@@ -171,13 +273,21 @@ impl Plant {
     /// inputs did not change) is two comparisons.
     #[inline(never)]
     fn change_inputs(&mut self, z_m: f64, omega: f64) {
+        if self.map.pending > 0 {
+            self.map.pending -= 1;
+            if self.map.pending == 0 {
+                self.map.wanted = true;
+                self.refresh_map(None);
+            }
+        }
         let fx = &self.model.effects;
+        let map = self.map_in_force();
         if !fx.tracks_changes() {
-            self.terms = InputTerms::new(&self.model, z_m, omega);
+            self.terms = InputTerms::with_map(&self.model, z_m, omega, map);
             return;
         }
         let before = self.terms.steady;
-        self.terms = InputTerms::new(&self.model, z_m, omega);
+        self.terms = InputTerms::with_map(&self.model, z_m, omega, map);
         // The step of the observed steady map this change makes, for the learned terms over
         // the time since it.
         let fx = &self.model.effects;
@@ -328,13 +438,33 @@ impl Plant {
             max_steps: self.tol.max_steps,
             form: self.form,
             change: self.change,
+            map_table: self.map.wanted,
+            map_pending: self.map.pending,
         }
     }
 
     /// Rebuild a plant from its model and a [`PlantSnapshot`]; stepping it continues exactly
     /// as the original would (the input terms are recomputed, deterministically).
     pub fn from_snapshot(model: Model, s: &PlantSnapshot) -> Plant {
+        Self::from_snapshot_sharing(model, s, None)
+    }
+
+    /// As [`Plant::from_snapshot`], adopting `table` (if it was built for `model`) when the
+    /// snapshot uses a map table, instead of building one.
+    pub fn from_snapshot_sharing(
+        model: Model,
+        s: &PlantSnapshot,
+        table: Option<&Arc<MapTable>>,
+    ) -> Plant {
         let mut p = Plant::new(model, s.inputs[0], s.inputs[1]);
+        if let Some(t) = table.filter(|t| t.answers_for(&p.model)) {
+            p.map.table = Some(t.clone());
+        }
+        p.map.wanted = s.map_table;
+        p.map.pending = s.map_pending;
+        if s.map_table {
+            p.refresh_map(None);
+        }
         p.r = s.r;
         p.t = s.t;
         p.form = s.form;
@@ -376,7 +506,22 @@ impl Plant {
 
     /// Advance the state by `h` seconds under the current inputs. On error the state is left
     /// as it was, so a caller may retry with a smaller step.
+    #[inline]
     pub fn step(&mut self, h: f64) -> Result<(), StepError> {
+        // A formed swarm at rest: the whole step replayed in O(1), inlined into the caller.
+        if self.stepper.replay(&self.terms, &self.r, h, &self.tol) {
+            self.t += h;
+            if self.model.effects.formation_lag.is_some() {
+                self.propagate_formation(h);
+            }
+            return Ok(());
+        }
+        self.integrate(h)
+    }
+
+    /// [`Plant::step`] when the step has to be integrated.
+    #[inline(never)]
+    fn integrate(&mut self, h: f64) -> Result<(), StepError> {
         let mut y = self.r;
         // Only these three change on a failed step (the rest memo holds facts either way);
         // saving them instead of the whole stepper keeps the hot path free of copies.
@@ -398,13 +543,18 @@ impl Plant {
         }
         self.r = y;
         self.t += h;
+        self.propagate_formation(h);
+        Ok(())
+    }
+
+    /// Advance the slow formation mode of `formation_lag` (if on) by `h` seconds.
+    fn propagate_formation(&mut self, h: f64) {
         if let Some(fl) = &self.model.effects.formation_lag {
             let target = self.terms.steady.radii();
             let a = fl.propagate([self.form[0], self.form[1]], target[0], h);
             let b = fl.propagate([self.form[2], self.form[3]], target[1], h);
             self.form = [a[0], a[1], b[0], b[1]];
         }
-        Ok(())
     }
 
     /// Physical footprint radii \[mm\] before the measurement effects: the ODE (4) state, or,
@@ -428,6 +578,37 @@ impl Plant {
         }
         let o = self.outputs();
         [o.r1, o.r2]
+    }
+
+    /// Whether every number of [`Plant::outputs`] that an FMU reports (radii, steady radii,
+    /// stiffness, field) is finite, without copying the steady point when no effect is on
+    /// (the check of every input change).
+    #[inline]
+    pub fn outputs_finite(&self) -> bool {
+        let probe = |r: [f64; 2], sp: &SteadyPoint| {
+            // x * 0 is 0 for every finite x and NaN otherwise: one sum, no branches.
+            [
+                r[0],
+                r[1],
+                sp.r1,
+                sp.r2,
+                sp.s_x,
+                sp.s_y,
+                sp.field.b,
+                sp.field.g_z,
+                sp.field.k_xx,
+                sp.field.k_yy,
+            ]
+            .iter()
+            .map(|x| x * 0.0)
+            .sum::<f64>()
+                == 0.0
+        };
+        if self.plain {
+            return probe(self.r, &self.terms.steady);
+        }
+        let o = self.outputs();
+        probe([o.r1, o.r2], &o.steady)
     }
 
     /// Outputs at the current instant (every enabled effect applied).
@@ -533,6 +714,64 @@ mod tests {
         let mut q = snap;
         q.step(0.5).unwrap();
         assert_eq!(a, q.state());
+    }
+}
+
+#[cfg(test)]
+mod map_table_tests {
+    use super::*;
+    use crate::hz_to_rad_s as hz;
+
+    fn sweep(p: &mut Plant, from: usize, to: usize) {
+        for k in from..to {
+            let s = (k as f64 * 0.013).sin();
+            p.set_inputs(0.0085 + 0.004 * s, hz(5.0 + 3.0 * s));
+            p.step(0.01).unwrap();
+        }
+    }
+
+    /// A plant with the map table follows the exact one within a nanometre through a sweep
+    /// of both inputs, and its snapshots (taken before and after the table comes into force)
+    /// replay it bit for bit.
+    #[test]
+    fn table_plant_tracks_the_exact_plant_and_replays_from_snapshots() {
+        let mut exact = Plant::new(Model::paper(), 0.0085, hz(4.0));
+        let mut fast = exact.clone();
+        fast.use_map_table_after(50, None);
+        assert!(fast.map_table().is_none(), "built before it is needed");
+        sweep(&mut exact, 0, 30);
+        sweep(&mut fast, 0, 30);
+        let early = fast.snapshot();
+        assert_eq!(early.map_pending, 20);
+        sweep(&mut exact, 30, 400);
+        sweep(&mut fast, 30, 400);
+        assert!(fast.map_table().is_some());
+        let late = fast.snapshot();
+        let (a, b) = (exact.state(), fast.state());
+        assert!(
+            (a[0] - b[0]).abs() < 1e-9 && (a[1] - b[1]).abs() < 1e-9,
+            "{a:?} {b:?}"
+        );
+        // Replays: from the early snapshot (the table comes into force on the way) and from
+        // the late one (adopting the table already built).
+        let mut from_early = Plant::from_snapshot(Model::paper(), &early);
+        sweep(&mut from_early, 30, 400);
+        assert_eq!(from_early.state(), fast.state());
+        let mut from_late = Plant::from_snapshot_sharing(Model::paper(), &late, fast.map_table());
+        let mut again = fast.clone();
+        sweep(&mut from_late, 400, 600);
+        sweep(&mut again, 400, 600);
+        assert_eq!(from_late, again);
+        assert_eq!(from_late.state(), again.state());
+        // With an effect on the map the setting is kept but the map stays exact.
+        let mut m = Model::paper();
+        m.effects.cohesion_loss = Some(crate::effects::CohesionLoss {
+            z_c_mm: 15.0,
+            k_per_mm2: 0.01,
+        });
+        let mut p = Plant::new(m, 0.0085, hz(4.0));
+        p.use_map_table(true);
+        assert!(p.map_table().is_none() && p.snapshot().map_table);
     }
 }
 

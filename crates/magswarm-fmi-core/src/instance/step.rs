@@ -4,13 +4,62 @@ use super::{Instance, TIME_TOLERANCE};
 use crate::log::Ctx;
 use crate::mode::Mode;
 use crate::model::FmuModel;
-use crate::status::Status;
+use crate::status::{ModelError, Status};
 use crate::variable::VarType;
 
 impl<M: FmuModel> Instance<M> {
     /// A Co-Simulation step from `current` by `step` (`fmi2DoStep`, `fmi3DoStep`). A model's
     /// Discard leaves the instance at `current` in [`Mode::StepFailed`].
+    ///
+    /// The arguments are checked in one test on the way in; only a refused step goes to
+    /// `Instance::refuse_step` to find out which rule it broke and say so.
+    #[inline]
     pub fn do_step(&mut self, f: &'static str, current: f64, step: f64) -> Status {
+        let t = self.shell.time;
+        let next = current + step;
+        let contiguous = (current - t).abs() <= TIME_TOLERANCE * t.abs().max(1.0);
+        // Written as "not past the stop" so that it reads exactly as the refusal it replaces.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let before_stop = match self.shell.stop_time {
+            None => true,
+            Some(stop) => !(next > stop + TIME_TOLERANCE * stop.abs().max(1.0)),
+        };
+        // `step > 0` and the finiteness of both are inside `contiguous` and this test: a NaN
+        // fails every comparison, an infinite `current` is never within tolerance of `t`.
+        if !(step.is_finite() && step > 0.0 && current.is_finite() && contiguous && before_stop) {
+            return self.refuse_step(f, current, step);
+        }
+        let mut ctx = Ctx::new(&self.logger, f);
+        let r = self.model.step(&mut ctx, current, step);
+        let cs = ctx.status();
+        match r {
+            Ok(()) => {
+                self.shell.time = next;
+                cs
+            }
+            Err(e) => self.step_failed(f, cs, e, next),
+        }
+    }
+
+    /// The model's step returned an error: log it; a Discard leaves the instance at the
+    /// communication point in [`Mode::StepFailed`], a mere warning moves time on.
+    #[cold]
+    #[inline(never)]
+    fn step_failed(&mut self, f: &'static str, cs: Status, e: ModelError, next: f64) -> Status {
+        let discarded = e.status == Status::Discard;
+        let s = self.conclude(f, cs, Err(e));
+        if s <= Status::Warning {
+            self.shell.time = next;
+        } else if discarded {
+            self.shell.mode = Mode::StepFailed;
+        }
+        s
+    }
+
+    /// Log which rule a refused step broke (in the order a reader would check them).
+    #[cold]
+    #[inline(never)]
+    fn refuse_step(&mut self, f: &'static str, current: f64, step: f64) -> Status {
         if !(step.is_finite() && step > 0.0) {
             return self.fail(
                 f,
@@ -38,27 +87,12 @@ impl<M: FmuModel> Instance<M> {
                 ),
             );
         }
-        let next = current + step;
-        if let Some(stop) = self.shell.stop_time {
-            if next > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
-                return self.fail(
-                    f,
-                    Status::Error,
-                    format!("step from {current:?} by {step:?} would pass the stopTime {stop:?} of the experiment"),
-                );
-            }
-        }
-        let mut ctx = Ctx::new(&self.logger, f);
-        let r = self.model.step(&mut ctx, current, step);
-        let cs = ctx.status();
-        let discarded = matches!(&r, Err(e) if e.status == Status::Discard);
-        let s = self.conclude(f, cs, r);
-        if s <= Status::Warning {
-            self.shell.time = next;
-        } else if discarded {
-            self.shell.mode = Mode::StepFailed;
-        }
-        s
+        let stop = self.shell.stop_time.unwrap_or(f64::INFINITY);
+        self.fail(
+            f,
+            Status::Error,
+            format!("step from {current:?} by {step:?} would pass the stopTime {stop:?} of the experiment"),
+        )
     }
 
     /// The Jacobian of `unknowns` with respect to `knowns` (row-major), every reference

@@ -14,13 +14,24 @@ use crate::status::{ModelError, Status};
 use crate::variable::{VarType, Variable};
 
 impl<M: FmuModel> Instance<M> {
+    #[inline]
     fn check_get(&mut self, f: &'static str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
         for &vr in vrs {
-            if let Err(m) = self.table.typed(vr, ty) {
-                return Err(self.fail(f, Status::Error, m));
+            if !matches!(self.table.get(vr), Some(v) if v.ty == ty) {
+                return Err(self.refuse_reference(f, vr, ty));
             }
         }
         Ok(())
+    }
+
+    /// `vr` is not a variable of type `ty`: say which it is, if any.
+    #[cold]
+    #[inline(never)]
+    fn refuse_reference(&mut self, f: &'static str, vr: u32, ty: VarType) -> Status {
+        match self.table.typed(vr, ty) {
+            Err(m) => self.fail(f, Status::Error, m),
+            Ok(_) => Status::Ok,
+        }
     }
 
     fn getter_error(&mut self, f: &'static str, var_vr: u32, e: ModelError) -> Status {
@@ -116,20 +127,37 @@ impl<M: FmuModel> Instance<M> {
 
     /// Check every reference before setting anything, so a bad call leaves no variable
     /// half-set.
+    #[inline]
     fn check_set(&mut self, f: &'static str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
         let mode = self.shell.mode;
         for &vr in vrs {
-            let var: &Variable = match self.table.typed(vr, ty) {
-                Ok(v) => v,
-                Err(m) => return Err(self.fail(f, Status::Error, m)),
+            let ok = match self.table.get(vr) {
+                Some(v) if v.ty == ty => may_set(v, mode).is_ok(),
+                _ => false,
             };
-            if let Err(m) = may_set(var, mode) {
-                return Err(self.fail(f, Status::Error, m));
+            if !ok {
+                return Err(self.refuse_set(f, vr, ty));
             }
         }
         Ok(())
     }
 
+    /// `vr` cannot be set now: not a variable of type `ty`, or not settable in this mode
+    /// ([`may_set`] says why).
+    #[cold]
+    #[inline(never)]
+    fn refuse_set(&mut self, f: &'static str, vr: u32, ty: VarType) -> Status {
+        let var: &Variable = match self.table.typed(vr, ty) {
+            Ok(v) => v,
+            Err(m) => return self.fail(f, Status::Error, m),
+        };
+        match may_set(var, self.shell.mode) {
+            Err(m) => self.fail(f, Status::Error, m),
+            Ok(()) => Status::Ok,
+        }
+    }
+
+    #[inline(always)]
     fn setter_result(
         &mut self,
         f: &'static str,
@@ -137,14 +165,36 @@ impl<M: FmuModel> Instance<M> {
         r: Result<(), ModelError>,
         worst: &mut Status,
     ) -> bool {
-        if let Err(mut e) = r {
-            let name = self.table.get(vr).map_or("?", |v| v.name);
-            e.message = format!("variable \"{name}\": {}", e.message);
-            let s = self.conclude(f, Status::Ok, Err(e));
-            *worst = (*worst).max(s);
-            return s <= Status::Warning;
+        match r {
+            Ok(()) => true,
+            Err(e) => self.setter_failed(f, vr, e, worst),
         }
-        true
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn setter_failed(
+        &mut self,
+        f: &'static str,
+        vr: u32,
+        mut e: ModelError,
+        worst: &mut Status,
+    ) -> bool {
+        let name = self.table.get(vr).map_or("?", |v| v.name);
+        e.message = format!("variable \"{name}\": {}", e.message);
+        let s = self.conclude(f, Status::Ok, Err(e));
+        *worst = (*worst).max(s);
+        s <= Status::Warning
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn non_finite(&mut self, f: &'static str, vr: u32, x: f64) -> Status {
+        let name = self.table.get(vr).map_or("?", |v| v.name);
+        let msg = format!(
+            "value {x} for variable \"{name}\" (value reference {vr}) is not finite; rejected, the variable keeps its value"
+        );
+        self.fail(f, Status::Error, msg)
     }
 
     /// Set Reals (`fmi2SetReal`, `fmi3SetFloat64`): non-finite values are refused, naming the variable.
@@ -154,12 +204,7 @@ impl<M: FmuModel> Instance<M> {
         }
         for (&vr, &x) in vrs.iter().zip(values) {
             if !x.is_finite() {
-                let var = self.table.get(vr).expect("checked");
-                let msg = format!(
-                    "value {x} for variable \"{}\" (value reference {vr}) is not finite; rejected, the variable keeps its value",
-                    var.name
-                );
-                return self.fail(f, Status::Error, msg);
+                return self.non_finite(f, vr, x);
             }
         }
         let mut worst = Status::Ok;

@@ -61,9 +61,15 @@ pub(crate) unsafe fn instance<M: FmuModel>(c: Fmi2Component) -> Option<*mut Inst
 
 /// Common prologue/epilogue: pointer check, interface and state check, panic barrier.
 ///
+/// Inlined into every entry point, where `func` is a constant: the interface, capability
+/// and state checks then fold into one test of the mode ([`permitted`]); everything that
+/// builds a message (a refused call, a caught panic) is out of line ([`refuse`],
+/// [`after_panic`]), so the accepted call pays for the checks and nothing else.
+///
 /// # Safety
 /// `c` is NULL or a component this library returned for model `M`, not used by another
 /// thread during the call (FMI 2.0 section 2.1.5).
+#[inline(always)]
 pub(crate) unsafe fn entry<M: FmuModel>(
     c: Fmi2Component,
     func: Func,
@@ -78,82 +84,126 @@ pub(crate) unsafe fn entry<M: FmuModel>(
         // SAFETY: `inst` is a live instance (magic checked) and the importer makes no other
         // call on it while this one runs, so this is the only reference.
         let i = unsafe { &mut *inst };
-        let mode = i.shell.mode;
-        let me = i.is_model_exchange();
-        if me && func.co_simulation_only() {
-            return i.fail(
-                func.name(),
-                Status::Error,
-                "illegal call: this instance was instantiated as fmi2ModelExchange and this \
-                 function belongs to Co-Simulation",
-            );
-        }
-        if !me && func.model_exchange_only() {
-            return i.fail(
-                func.name(),
-                Status::Error,
-                "illegal call: this instance was instantiated as fmi2CoSimulation and this \
-                 function belongs to Model Exchange",
-            );
-        }
-        if let Some((cap, attribute)) = func.capability() {
-            if let Some(s) = i.refuse_unsupported(func.name(), cap, attribute) {
-                return s;
-            }
-        }
-        if !func.allowed_in(mode) {
-            let hint = match func {
-                Func::CancelStep => " (fmi2DoStep of this FMU never returns fmi2Pending, so there is nothing to cancel)",
-                Func::GetStatus
-                | Func::GetRealStatus
-                | Func::GetIntegerStatus
-                | Func::GetBooleanStatus
-                | Func::GetStringStatus => " (allowed after fmi2ExitInitializationMode)",
-                Func::DoStep if mode == Mode::InitializationMode => " (call fmi2ExitInitializationMode first)",
-                Func::DoStep if mode == Mode::Instantiated => {
-                    " (call fmi2EnterInitializationMode and fmi2ExitInitializationMode first)"
-                }
-                _ => "",
-            };
-            let hint = match mode {
-                Mode::Error | Mode::Fatal => format!(
-                    "{hint} (allowed in state {}: {})",
-                    mode.name(),
-                    Func::allowed_list(mode)
-                ),
-                _ => hint.to_string(),
-            };
-            return i.fail(
-                func.name(),
-                Status::Error,
-                format!(
-                    "illegal call sequence: not allowed in state {}{hint}",
-                    mode.name()
-                ),
-            );
+        if !permitted::<M>(func, i.shell.mode, i.is_model_exchange()) {
+            return refuse(i, func);
         }
         body(i)
     });
     match result {
         Ok(s) => s.into(),
-        Err(payload) => {
-            let msg = panic_message(&*payload);
-            drop_payload(payload);
-            let logged = barrier(|| {
-                // SAFETY: as above; the body's reference ended with its panic.
-                unsafe { &mut *inst }.fail(
-                    func.name(),
-                    Status::Error,
-                    format!("internal error: the model panicked: {msg}"),
-                )
-            });
-            match logged {
-                Ok(s) => s.into(),
-                Err(p) => {
-                    drop_payload(p);
-                    Fmi2Status::Error
-                }
-            }
+        // SAFETY: as above; the body's reference ended with its panic.
+        Err(payload) => unsafe { after_panic(inst, func, payload) },
+    }
+}
+
+/// Whether `func` may run now: it belongs to the instance's interface, the model provides
+/// its capability, and the state machine allows it in `mode`. Exactly the conditions
+/// [`refuse`] explains; with a constant `func` this folds to a test of `mode`.
+#[inline(always)]
+fn permitted<M: FmuModel>(func: Func, mode: Mode, model_exchange: bool) -> bool {
+    let interface_ok = if model_exchange {
+        !func.co_simulation_only()
+    } else {
+        !func.model_exchange_only()
+    };
+    let capability_ok = match func.capability() {
+        None => true,
+        Some((magswarm_fmi_core::Capability::FmuState, _)) => M::CAN_GET_AND_SET_FMU_STATE,
+        Some((magswarm_fmi_core::Capability::Derivatives, _)) => M::PROVIDES_DIRECTIONAL_DERIVATIVE,
+    };
+    interface_ok && capability_ok && func.allowed_in(mode)
+}
+
+/// A call [`permitted`] refused: log why (wrong interface, capability not provided, or not
+/// allowed in this state, with a hint) and return the error.
+#[cold]
+#[inline(never)]
+fn refuse<M: FmuModel>(i: &mut Instance<M>, func: Func) -> Status {
+    let mode = i.shell.mode;
+    let me = i.is_model_exchange();
+    if me && func.co_simulation_only() {
+        return i.fail(
+            func.name(),
+            Status::Error,
+            "illegal call: this instance was instantiated as fmi2ModelExchange and this \
+             function belongs to Co-Simulation",
+        );
+    }
+    if !me && func.model_exchange_only() {
+        return i.fail(
+            func.name(),
+            Status::Error,
+            "illegal call: this instance was instantiated as fmi2CoSimulation and this \
+             function belongs to Model Exchange",
+        );
+    }
+    if let Some((cap, attribute)) = func.capability() {
+        if let Some(s) = i.refuse_unsupported(func.name(), cap, attribute) {
+            return s;
+        }
+    }
+    let hint = match func {
+        Func::CancelStep => {
+            " (fmi2DoStep of this FMU never returns fmi2Pending, so there is nothing to cancel)"
+        }
+        Func::GetStatus
+        | Func::GetRealStatus
+        | Func::GetIntegerStatus
+        | Func::GetBooleanStatus
+        | Func::GetStringStatus => " (allowed after fmi2ExitInitializationMode)",
+        Func::DoStep if mode == Mode::InitializationMode => {
+            " (call fmi2ExitInitializationMode first)"
+        }
+        Func::DoStep if mode == Mode::Instantiated => {
+            " (call fmi2EnterInitializationMode and fmi2ExitInitializationMode first)"
+        }
+        _ => "",
+    };
+    let hint = match mode {
+        Mode::Error | Mode::Fatal => format!(
+            "{hint} (allowed in state {}: {})",
+            mode.name(),
+            Func::allowed_list(mode)
+        ),
+        _ => hint.to_string(),
+    };
+    i.fail(
+        func.name(),
+        Status::Error,
+        format!(
+            "illegal call sequence: not allowed in state {}{hint}",
+            mode.name()
+        ),
+    )
+}
+
+/// The body panicked: log the panic's message through the importer's logger (itself under
+/// the barrier) and return the error.
+///
+/// # Safety
+/// `inst` is the live instance of the call whose body panicked, with no other reference.
+#[cold]
+#[inline(never)]
+unsafe fn after_panic<M: FmuModel>(
+    inst: *mut Instance<M>,
+    func: Func,
+    payload: Box<dyn std::any::Any + Send>,
+) -> Fmi2Status {
+    let msg = panic_message(&*payload);
+    drop_payload(payload);
+    let logged = barrier(|| {
+        // SAFETY: the caller's contract.
+        unsafe { &mut *inst }.fail(
+            func.name(),
+            Status::Error,
+            format!("internal error: the model panicked: {msg}"),
+        )
+    });
+    match logged {
+        Ok(s) => s.into(),
+        Err(p) => {
+            drop_payload(p);
+            Fmi2Status::Error
         }
     }
 }

@@ -58,11 +58,17 @@ pub(crate) unsafe fn instance<M: FmuModel>(c: Fmi3Instance) -> Option<*mut Insta
     unsafe { Instance::<M>::from_handle(c, INSTANCE_MAGIC) }
 }
 
-/// Common prologue/epilogue: pointer check, interface and mode check, panic barrier.
+/// Common prologue/epilogue: pointer check, interface and state check, panic barrier.
+///
+/// Inlined into every entry point, where `func` is a constant: the interface, capability
+/// and state checks then fold into one test of the mode ([`permitted`]); everything that
+/// builds a message (a refused call, a caught panic) is out of line ([`refuse`],
+/// [`after_panic`]).
 ///
 /// # Safety
 /// `c` is NULL or an instance this library returned for model `M`, not used by another
 /// thread during the call.
+#[inline(always)]
 pub(crate) unsafe fn entry<M: FmuModel>(
     c: Fmi3Instance,
     func: Func,
@@ -77,82 +83,120 @@ pub(crate) unsafe fn entry<M: FmuModel>(
         // SAFETY: `inst` is a live instance (magic checked) and the importer makes no other
         // call on it while this one runs, so this is the only reference.
         let i = unsafe { &mut *inst };
-        let me = i.is_model_exchange();
-        let wrong = match func.interface() {
-            Belongs::Both => None,
-            Belongs::ModelExchange if !me => Some(("Co-Simulation", "Model Exchange")),
-            Belongs::CoSimulation if me => Some(("Model Exchange", "Co-Simulation")),
-            _ => None,
-        };
-        if let Some((is, belongs)) = wrong {
-            return i.fail(
-                func.name(),
-                Status::Error,
-                format!(
-                    "illegal call: this instance was instantiated for {is} and this function \
-                     belongs to {belongs}"
-                ),
-            );
-        }
-        if let Some((cap, attribute)) = func.capability() {
-            if let Some(s) = i.refuse_unsupported(func.name(), cap, attribute) {
-                return s;
-            }
-        }
-        let mode = i.mode();
-        if !func.allowed_in(mode) {
-            let hint = match (func, mode) {
-                (Func::DoStep, Mode::Instantiated) => {
-                    " (call fmi3EnterInitializationMode and fmi3ExitInitializationMode first)"
-                        .to_string()
-                }
-                (Func::DoStep, Mode::InitializationMode) => {
-                    " (call fmi3ExitInitializationMode first)".to_string()
-                }
-                (Func::EnterStepMode, _) => " (this FMU has no event mode in Co-Simulation: \
-                     fmi3ExitInitializationMode leads to Step Mode directly)"
-                    .to_string(),
-                (Func::ExitConfigurationMode, _) => {
-                    " (this FMU has no structural parameters, so no configuration mode)".to_string()
-                }
-                (_, Mode::Error | Mode::Fatal) => format!(
-                    " (allowed in state {}: {})",
-                    mode_name(mode),
-                    Func::allowed_list(mode)
-                ),
-                _ => String::new(),
-            };
-            return i.fail(
-                func.name(),
-                Status::Error,
-                format!(
-                    "illegal call sequence: not allowed in state {}{hint}",
-                    mode_name(mode)
-                ),
-            );
+        if !permitted::<M>(func, i.mode(), i.is_model_exchange()) {
+            return refuse(i, func);
         }
         body(i)
     });
     match result {
         Ok(s) => s,
-        Err(payload) => {
-            let msg = panic_message(&*payload);
-            drop_payload(payload);
-            let logged = barrier(|| {
-                // SAFETY: as above; the body's reference ended with its panic.
-                unsafe { &mut *inst }.fail(
-                    func.name(),
-                    Status::Error,
-                    format!("internal error: the model panicked: {msg}"),
-                )
-            });
-            match logged {
-                Ok(s) => s,
-                Err(p) => {
-                    drop_payload(p);
-                    Status::Error
-                }
-            }
+        // SAFETY: as above; the body's reference ended with its panic.
+        Err(payload) => unsafe { after_panic(inst, func, payload) },
+    }
+}
+
+/// Whether `func` may run now: it belongs to the instance's interface, the model provides
+/// its capability, and the state machine allows it in `mode`. Exactly the conditions
+/// [`refuse`] explains; with a constant `func` this folds to a test of `mode`.
+#[inline(always)]
+fn permitted<M: FmuModel>(func: Func, mode: Mode, model_exchange: bool) -> bool {
+    let interface_ok = match func.interface() {
+        Belongs::Both => true,
+        Belongs::ModelExchange => model_exchange,
+        Belongs::CoSimulation => !model_exchange,
+    };
+    let capability_ok = match func.capability() {
+        None => true,
+        Some((magswarm_fmi_core::Capability::FmuState, _)) => M::CAN_GET_AND_SET_FMU_STATE,
+        Some((magswarm_fmi_core::Capability::Derivatives, _)) => M::PROVIDES_DIRECTIONAL_DERIVATIVE,
+    };
+    interface_ok && capability_ok && func.allowed_in(mode)
+}
+
+/// A call [`permitted`] refused: log why and return the error.
+#[cold]
+#[inline(never)]
+fn refuse<M: FmuModel>(i: &mut Instance<M>, func: Func) -> Status {
+    let me = i.is_model_exchange();
+    let wrong = match func.interface() {
+        Belongs::Both => None,
+        Belongs::ModelExchange if !me => Some(("Co-Simulation", "Model Exchange")),
+        Belongs::CoSimulation if me => Some(("Model Exchange", "Co-Simulation")),
+        _ => None,
+    };
+    if let Some((is, belongs)) = wrong {
+        return i.fail(
+            func.name(),
+            Status::Error,
+            format!(
+                "illegal call: this instance was instantiated for {is} and this function \
+                 belongs to {belongs}"
+            ),
+        );
+    }
+    if let Some((cap, attribute)) = func.capability() {
+        if let Some(s) = i.refuse_unsupported(func.name(), cap, attribute) {
+            return s;
+        }
+    }
+    let mode = i.mode();
+    let hint = match (func, mode) {
+        (Func::DoStep, Mode::Instantiated) => {
+            " (call fmi3EnterInitializationMode and fmi3ExitInitializationMode first)".to_string()
+        }
+        (Func::DoStep, Mode::InitializationMode) => {
+            " (call fmi3ExitInitializationMode first)".to_string()
+        }
+        (Func::EnterStepMode, _) => " (this FMU has no event mode in Co-Simulation: \
+             fmi3ExitInitializationMode leads to Step Mode directly)"
+            .to_string(),
+        (Func::ExitConfigurationMode, _) => {
+            " (this FMU has no structural parameters, so no configuration mode)".to_string()
+        }
+        (_, Mode::Error | Mode::Fatal) => format!(
+            " (allowed in state {}: {})",
+            mode_name(mode),
+            Func::allowed_list(mode)
+        ),
+        _ => String::new(),
+    };
+    i.fail(
+        func.name(),
+        Status::Error,
+        format!(
+            "illegal call sequence: not allowed in state {}{hint}",
+            mode_name(mode)
+        ),
+    )
+}
+
+/// The body panicked: log the panic's message through the importer's logger (itself under
+/// the barrier) and return the error.
+///
+/// # Safety
+/// `inst` is the live instance of the call whose body panicked, with no other reference.
+#[cold]
+#[inline(never)]
+unsafe fn after_panic<M: FmuModel>(
+    inst: *mut Instance<M>,
+    func: Func,
+    payload: Box<dyn std::any::Any + Send>,
+) -> Fmi3Status {
+    let msg = panic_message(&*payload);
+    drop_payload(payload);
+    let logged = barrier(|| {
+        // SAFETY: the caller's contract.
+        unsafe { &mut *inst }.fail(
+            func.name(),
+            Status::Error,
+            format!("internal error: the model panicked: {msg}"),
+        )
+    });
+    match logged {
+        Ok(s) => s,
+        Err(p) => {
+            drop_payload(p);
+            Status::Error
         }
     }
 }
