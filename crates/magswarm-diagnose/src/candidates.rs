@@ -253,7 +253,7 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
             let c = sh.at(x_of(sh.family.axis, p, 0.0, 0.0)).map(|c| c * scale);
             let before = *v;
             match sh.family.mode {
-                Mode::Relative | Mode::Aspect => {
+                Mode::Relative | Mode::Aspect | Mode::Common => {
                     for a in 0..2 {
                         v[a] *= 1.0 + c[a];
                     }
@@ -298,7 +298,7 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
                 .map(|c| c * scale);
             for a in 0..2 {
                 match sh.family.mode {
-                    Mode::Relative | Mode::Aspect => out[i][a] *= 1.0 + c[a],
+                    Mode::Relative | Mode::Aspect | Mode::Common => out[i][a] *= 1.0 + c[a],
                     Mode::StepFraction => out[i][a] += c[a] * delta[a],
                     Mode::Add | Mode::Rate => out[i][a] += c[a],
                 }

@@ -76,6 +76,10 @@ pub enum Mode {
     /// radii (stretched along one principal direction, squeezed along the other). Written
     /// into the model file as a relative change with opposite heights.
     Aspect,
+    /// A relative change of the swarm as a whole [-]: r1 (1 + v) and r2 (1 + v), one value
+    /// for both radii (a loosening swarm grows along both principal directions: the
+    /// signature that tells a cohesion loss from an aspect change).
+    Common,
 }
 
 impl Mode {
@@ -87,6 +91,7 @@ impl Mode {
             Mode::StepFraction => "step_fraction",
             Mode::Rate => "rate_hz",
             Mode::Aspect => "aspect",
+            Mode::Common => "common",
         }
     }
 }
@@ -283,7 +288,7 @@ impl RowCtx {
         scale
             * match f.mode {
                 Mode::Add => 1.0,
-                Mode::Relative => self.pred[i][a],
+                Mode::Relative | Mode::Common => self.pred[i][a],
                 Mode::StepFraction => self.delta[i][a],
                 Mode::Rate => -self.dmap_df[i][a],
                 Mode::Aspect => self.pred[i][a] * if a == 0 { -1.0 } else { 1.0 },
@@ -297,9 +302,9 @@ fn free_knots(f: &Family) -> usize {
 }
 
 /// One set of heights for both radii (a rate deficit acts on the whole swarm, an aspect change
-/// on both principal radii at once).
+/// and a change of the whole swarm on both principal radii at once).
 fn shared(f: &Family) -> bool {
-    matches!(f.mode, Mode::Rate | Mode::Aspect)
+    matches!(f.mode, Mode::Rate | Mode::Aspect | Mode::Common)
 }
 
 /// The weighted columns of a family (stacked rows x 2 free-knot blocks, r1's then r2's) and

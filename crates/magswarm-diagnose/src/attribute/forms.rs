@@ -260,7 +260,7 @@ fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
     for v in vs {
         let mut best = v.clone();
         if let Variant::Shape(f) = v {
-            if !matches!(f.mode, Mode::Rate | Mode::Aspect) {
+            if !matches!(f.mode, Mode::Rate | Mode::Aspect | Mode::Common) {
                 let score = |axes: [bool; 2]| -> Option<f64> {
                     let g = Family { axes, ..f.clone() };
                     let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;

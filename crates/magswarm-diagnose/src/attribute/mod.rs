@@ -342,6 +342,30 @@ pub fn attribute(
                 best = Some(e);
             }
         }
+        // The off-axis swarm is the rarer explanation: `centroid_offset` is named over a
+        // passing effect with an axis of its own (a cohesion loss over z_m, a phase lag over
+        // f, a drift, a formation) only when it keeps a gain beyond its own null on top of
+        // that effect's shape, i.e. when it carries a signature the other cannot (an aspect
+        // change the other's shape does not take up). Otherwise the common explanation, the
+        // one that describes the gap as well, is named.
+        if let Some(b) =
+            best.filter(|&b| scored[b].name == Cand::Effect(EffectKind::CentroidOffset))
+        {
+            let q = quantile(&scored[b].null, 1.0 - st.alpha).max(MIN_GAIN);
+            let common = order.iter().copied().find(|&e| {
+                matches!(scored[e].name, Cand::Effect(k) if k != EffectKind::CentroidOffset && k != EffectKind::CameraBias)
+                    && nested_gain(lin, &cur, scored[e].best.as_ref(), scored[b].best.as_ref())
+                        .is_some_and(|g| g < q)
+            });
+            if let Some(e) = common {
+                log::debug!(
+                    "centroid_offset adds nothing beyond its null on top of {}: {} named",
+                    scored[e].name.name(),
+                    scored[e].name.name()
+                );
+                best = Some(e);
+            }
+        }
         let winner = best.map(|b| scored[b].name);
         let new_name = winner.filter(|w| *w != Cand::Anomaly && !is_named(*w));
         for (i, s) in scored.iter().enumerate() {
@@ -474,5 +498,23 @@ fn box_left(lin: &Linear, cur: &Design, v: Option<&Variant>) -> Option<f64> {
     let (bc, bp) = anomaly_columns(lin, &e0);
     let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
     let s1 = Solver::new(&d.extend(&bc, &bp), &lin.fold_of_stacked, lin.k)?;
+    Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+}
+
+/// The withheld gain of variant `add` on top of design `cur` with variant `base`: what `add`
+/// explains that `base` does not.
+fn nested_gain(
+    lin: &Linear,
+    cur: &Design,
+    base: Option<&Variant>,
+    add: Option<&Variant>,
+) -> Option<f64> {
+    let d = cur.append(&columns_of(base?, &lin.rc)?);
+    let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
+    let s1 = Solver::new(
+        &d.append(&columns_of(add?, &lin.rc)?),
+        &lin.fold_of_stacked,
+        lin.k,
+    )?;
     Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
 }

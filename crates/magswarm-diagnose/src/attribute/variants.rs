@@ -68,15 +68,27 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
         }
     }
     out.push((Cand::Effect(EffectKind::PhaseLag), v));
+    // A cohesion loss loosens the whole swarm: both radii grow together past an onset (a
+    // relative change shared by both radii), or it shows in one radius only. It never
+    // stretches one principal radius while squeezing the other: that is an aspect change,
+    // the signature of an off-axis swarm, and a cohesion shape free per radius would take
+    // it from `centroid_offset`.
     let mut v = Vec::new();
-    for mode in [Mode::Add, Mode::Relative] {
-        for s in smooths {
-            v.push(Variant::Shape(Family::new(
-                Axis::Z,
-                mode,
-                shapes::knots_of(&zs, 8),
-                s,
-            )));
+    let kz = shapes::knots_of(&zs, 8);
+    for s in smooths {
+        v.push(Variant::Shape(Family::new(
+            Axis::Z,
+            Mode::Common,
+            kz.clone(),
+            s,
+        )));
+    }
+    for axes in [[true, false], [false, true]] {
+        for s in [0.1, 1.0] {
+            v.push(Variant::Shape(Family {
+                axes,
+                ..Family::new(Axis::Z, Mode::Add, kz.clone(), s)
+            }));
         }
     }
     out.push((Cand::Effect(EffectKind::CohesionLoss), v));
