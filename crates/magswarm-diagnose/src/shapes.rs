@@ -119,6 +119,10 @@ pub struct Family {
     /// The heights must run one way along the axis (a drift, a growth past an onset): each
     /// radius' heights are a monotone block of the fit.
     pub monotone: Option<linear::Monotone>,
+    /// Only what varies within each visit counts (each visit's mean of the columns taken
+    /// out): evidence of a transient that no visit offset can make, for naming; the shape
+    /// that enters a model is always the whole one.
+    pub within: bool,
 }
 
 impl Family {
@@ -133,6 +137,7 @@ impl Family {
             amp: 0.0,
             axes: [true; 2],
             monotone: None,
+            within: false,
         }
     }
 }
@@ -216,6 +221,8 @@ pub struct RowCtx {
     pub pred: Vec<[f64; 2]>,
     /// Sensitivity of the steady map to the drive frequency at each row's point [mm/Hz].
     pub dmap_df: Vec<[f64; 2]>,
+    /// Visit of each row.
+    pub visit: Vec<usize>,
 }
 
 impl RowCtx {
@@ -250,6 +257,7 @@ impl RowCtx {
             delta,
             pred: pred.to_vec(),
             dmap_df: ds.rows.iter().map(|r| dmap_df[r.point]).collect(),
+            visit: ds.rows.iter().map(|r| r.visit).collect(),
         }
     }
 
@@ -328,6 +336,9 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
             }
         }
     }
+    if f.within {
+        within_visits(&rc.visit, &mut a);
+    }
     let info = (0..blocks * k)
         .map(|c| a.column(c).norm_squared())
         .sum::<f64>()
@@ -335,6 +346,27 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     let info = info.max(1e-12);
     let pen = linear::roughness(k, blocks, f.smooth * info, 1e-3 * info);
     (a, pen)
+}
+
+/// Takes each visit's mean per axis out of every column (stacked rows): what is left varies
+/// within a visit.
+pub fn within_visits(visit: &[usize], a: &mut DMatrix<f64>) {
+    let nv = visit.iter().copied().max().map_or(0, |m| m + 1);
+    for c in 0..a.ncols() {
+        let mut sum = vec![[0.0f64; 2]; nv];
+        let mut n = vec![0.0f64; nv];
+        for (i, &v) in visit.iter().enumerate() {
+            for ax in 0..2 {
+                sum[v][ax] += a[(2 * i + ax, c)];
+            }
+            n[v] += 1.0;
+        }
+        for (i, &v) in visit.iter().enumerate() {
+            for ax in 0..2 {
+                a[(2 * i + ax, c)] -= sum[v][ax] / n[v].max(1.0);
+            }
+        }
+    }
 }
 
 /// The columns, penalty and monotone blocks of a family, as a design fragment.
@@ -402,6 +434,7 @@ mod tests {
                 amp: 0.0,
                 axes: [true; 2],
                 monotone: None,
+                within: false,
                 smooth: 0.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],

@@ -421,7 +421,11 @@ pub fn attribute(
             out.anomaly_won = true;
             break;
         }
-        let v = scored[b].best.clone().expect("a variant");
+        let v = match scored[b].best.clone().expect("a variant") {
+            // Named on what varies within the visits: the whole shape enters the design.
+            Variant::Shape(f) if f.within => Variant::Shape(Family { within: false, ..f }),
+            v => v,
+        };
         if let Some(more) = columns_of(&v, &lin.rc) {
             cur = cur.append(&more);
         }

@@ -92,19 +92,30 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
         }
     }
     out.push((Cand::Effect(EffectKind::CohesionLoss), v));
-    if let Some(f) = detect::since_family(rc, 0.1) {
-        out.push((
-            Cand::Effect(EffectKind::FormationLag),
-            smooths
-                .iter()
-                .map(|&s| {
-                    Variant::Shape(Family {
-                        smooth: s,
-                        ..f.clone()
-                    })
+    if let Some(f) = detect::since_family(rc, 0.1, 6) {
+        let mut v: Vec<Variant> = smooths
+            .iter()
+            .map(|&s| {
+                Variant::Shape(Family {
+                    smooth: s,
+                    ..f.clone()
                 })
-                .collect(),
-        ));
+            })
+            .collect();
+        // Any stable transient, an underdamped one included: knots as dense as the rows'
+        // times since a change allow, where they resolve more than the coarse family does.
+        if let Some(fine) = detect::since_family(rc, 0.01, detect::SINCE_FINE_KNOTS)
+            .filter(|g| g.knots.len() > f.knots.len())
+        {
+            // Named also on what varies within each visit alone (judged against the row
+            // noise, not the visits' offsets); the whole shape enters the model.
+            v.push(Variant::Shape(Family {
+                within: true,
+                ..fine.clone()
+            }));
+            v.push(Variant::Shape(fine));
+        }
+        out.push((Cand::Effect(EffectKind::FormationLag), v));
     }
     out.push((
         Cand::Effect(EffectKind::ParticleDrift),
