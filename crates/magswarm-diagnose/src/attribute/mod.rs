@@ -454,6 +454,7 @@ pub fn attribute(
     }
     // The form of each named effect, and the final model.
     let (aug, design, learned) = choose_forms(lin, &named, &mut out, st, progress);
+    let aug = never_worse(lin, aug);
     // Detection on what the final model leaves (the closing round).
     if out.rounds.len() < named.len() {
         if let Some(d) = detect::detect(&setting(lin, &design, &st), st.alpha) {
@@ -521,4 +522,62 @@ fn nested_gain(
         lin.k,
     )?;
     Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+}
+
+/// Weighted in-sample sum of squares of a model on the log (what `predict` replays).
+fn sse_of(lin: &Linear, a: &Augmented) -> f64 {
+    let p = candidates::predict(a, lin.ds);
+    lin.ds
+        .rows
+        .iter()
+        .zip(&p)
+        .map(|(r, q)| {
+            (0..2)
+                .map(|ax| {
+                    let e = lin.rc.w[ax] * (r.r[ax] - q[ax]);
+                    if e.is_finite() {
+                        e * e
+                    } else {
+                        1e6
+                    }
+                })
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// The written model must fit the log at least as well as the baseline it extends: the
+/// linear step that carries the learned heights and the free parameters into the model file
+/// is exact only near the baseline (a large rate deficit, a free parameter driven to its
+/// bound). Where it fits worse, the free parameters are refitted by the nonlinear fitter from
+/// the baseline's values with the effects held; if that is still worse, the baseline's
+/// parameters are kept with the effects' shapes as fitted.
+fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
+    let base = sse_of(lin, &lin.base);
+    let now = sse_of(lin, &aug);
+    if now <= base {
+        return aug;
+    }
+    log::warn!(
+        "the augmented model's linear step fits the log worse than the baseline (weighted SS {now:.4e} > {base:.4e}); refitting its free parameters"
+    );
+    let mut start = aug.clone();
+    start.model = lin.base.model.clone();
+    let all: Vec<usize> = (0..lin.ds.rows.len()).collect();
+    let fr = fitter::fit(
+        &start,
+        lin.free,
+        lin.ds,
+        lin.ctx,
+        &all,
+        lin.noise.row(),
+        &[],
+    );
+    let refit = sse_of(lin, &fr.aug);
+    let held = sse_of(lin, &start);
+    if refit <= held && refit.is_finite() {
+        fr.aug
+    } else {
+        start
+    }
 }
