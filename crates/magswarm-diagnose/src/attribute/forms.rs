@@ -200,6 +200,8 @@ pub(super) fn choose_forms(
         // the linear fit's one step from the baseline is exact only near it.
         aug = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
     }
+    // A learned rate deficit acts nonlinearly: its heights refitted with the rest.
+    aug = fitter::refit_rates(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row());
     aug.sync_model();
     for (name, sh) in &aug.learned {
         if let Some(e) = out.evals.iter_mut().find(|e| e.kind == *name) {
