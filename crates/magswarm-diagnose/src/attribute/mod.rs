@@ -63,6 +63,11 @@ use rayon::prelude::*;
 /// null (one column) can lie beyond it with a gain no user would notice.
 pub const MIN_GAIN: f64 = 2.0;
 
+/// Share of a candidate's excess over its null quantile that another must keep on top of it
+/// to be named instead (a physical effect over the local anomaly's box; the rarer
+/// `centroid_offset` over a common effect with an axis).
+const MARGIN: f64 = 0.3;
+
 /// Ridge on the baseline's free-parameter directions (unit-norm columns).
 const JAC_RIDGE: f64 = 1e-2;
 
@@ -322,7 +327,7 @@ pub fn attribute(
                 // millimetre).
                 let g = gain(&s0, &s1, &lin.y, [1.0, 1.0]);
                 let q = quantile(&scored[e].null, 1.0 - st.alpha);
-                g >= MIN_GAIN.max(q) && g - q >= 0.3 * excess(&scored[b])
+                g >= MIN_GAIN.max(q) && g - q >= MARGIN * excess(&scored[b])
             });
             // A near tie goes to the effect: a physical description that explains the box
             // nearly as well is the better report (the leftover, if any, is tested next).
@@ -345,9 +350,10 @@ pub fn attribute(
         // The off-axis swarm is the rarer explanation: `centroid_offset` is named over a
         // passing effect with an axis of its own (a cohesion loss over z_m, a phase lag over
         // f, a drift, a formation) only when it keeps a gain beyond its own null on top of
-        // that effect's shape, i.e. when it carries a signature the other cannot (an aspect
-        // change the other's shape does not take up). Otherwise the common explanation, the
-        // one that describes the gap as well, is named.
+        // that effect's shape, by the same margin a physical effect needs over a local
+        // anomaly (a share of its own excess), i.e. when it carries a signature the other
+        // cannot (an aspect change the other's shape does not take up). Otherwise the common
+        // explanation, the one that describes most of the gap as well, is named.
         if let Some(b) =
             best.filter(|&b| scored[b].name == Cand::Effect(EffectKind::CentroidOffset))
         {
@@ -355,7 +361,14 @@ pub fn attribute(
             let common = order.iter().copied().find(|&e| {
                 matches!(scored[e].name, Cand::Effect(k) if k != EffectKind::CentroidOffset && k != EffectKind::CameraBias)
                     && nested_gain(lin, &cur, scored[e].best.as_ref(), scored[b].best.as_ref())
-                        .is_some_and(|g| g < q)
+                        .is_some_and(|g| {
+                            log::debug!(
+                                "centroid_offset on top of {}: gain {g:.1}, null quantile {q:.1}, own excess {:.1}",
+                                scored[e].name.name(),
+                                excess(&scored[b])
+                            );
+                            g < q || g - q < MARGIN * excess(&scored[b])
+                        })
             });
             if let Some(e) = common {
                 log::debug!(
