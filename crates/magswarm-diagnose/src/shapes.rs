@@ -9,9 +9,9 @@
 //! | effect | axis | acts as |
 //! | --- | --- | --- |
 //! | `phase_lag` | f, optionally scaled by the field, `f (B(z)/B_mid)^-nu` (an onset that moves with the field) | mm added to the steady radii |
-//! | `cohesion_loss` | z_m | mm added to the steady radii |
+//! | `cohesion_loss` | z_m | a relative change shared by both radii, or mm added to one radius |
 //! | `particle_drift` | session time | relative change of the observed radii |
-//! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating) |
+//! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating; optionally only what varies within each visit, for naming) |
 //!
 //! The heights are unknowns of a penalised linear model ([`super::linear`]): the roughness
 //! penalty keeps a shape smooth unless the data insist (a sudden particle loss is a steep

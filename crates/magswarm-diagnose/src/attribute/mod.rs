@@ -63,9 +63,8 @@ use rayon::prelude::*;
 /// null (one column) can lie beyond it with a gain no user would notice.
 pub const MIN_GAIN: f64 = 2.0;
 
-/// Share of a candidate's excess over its null quantile that another must keep on top of it
-/// to be named instead (a physical effect over the local anomaly's box; the rarer
-/// `centroid_offset` over a common effect with an axis).
+/// Share of the local anomaly's excess over its null quantile that an effect must keep on top
+/// of the anomaly's box to be named instead.
 const MARGIN: f64 = 0.3;
 
 /// Ridge on the baseline's free-parameter directions (unit-norm columns).
@@ -350,10 +349,9 @@ pub fn attribute(
         // The off-axis swarm is the rarer explanation: `centroid_offset` is named over a
         // passing effect with an axis of its own (a cohesion loss over z_m, a phase lag over
         // f, a drift, a formation) only when it keeps a gain beyond its own null on top of
-        // that effect's shape, by the same margin a physical effect needs over a local
-        // anomaly (a share of its own excess), i.e. when it carries a signature the other
-        // cannot (an aspect change the other's shape does not take up). Otherwise the common
-        // explanation, the one that describes most of the gap as well, is named.
+        // that effect's shape, i.e. when it carries a signature the other cannot (an aspect
+        // change the other's shape does not take up). Otherwise the common explanation, the
+        // one that describes the gap as well, is named.
         if let Some(b) =
             best.filter(|&b| scored[b].name == Cand::Effect(EffectKind::CentroidOffset))
         {
@@ -367,7 +365,7 @@ pub fn attribute(
                                 scored[e].name.name(),
                                 excess(&scored[b])
                             );
-                            g < q || g - q < MARGIN * excess(&scored[b])
+                            g < q
                         })
             });
             if let Some(e) = common {
