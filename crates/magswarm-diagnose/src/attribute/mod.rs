@@ -564,7 +564,7 @@ fn sse_of(lin: &Linear, a: &Augmented) -> f64 {
 /// the baseline's values with the effects held; if that is still worse, the baseline's
 /// parameters are kept with the effects' shapes as fitted.
 fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
-    let base = sse_of(lin, &lin.base);
+    let base = sse_of(lin, lin.base);
     let now = sse_of(lin, &aug);
     if now <= base {
         return aug;
