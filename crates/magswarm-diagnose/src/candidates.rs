@@ -239,40 +239,28 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
         }
     };
     let steady_axes = |a: shapes::Axis| matches!(a, shapes::Axis::F { .. } | shapes::Axis::Z);
-    // The learned steady shapes' change of the steady map, per point (a rate deficit
-    // re-evaluates the map at the slower rotation).
+    // The learned steady shapes' change of the steady map, per point: evaluated by the model
+    // file's own steady map with the shapes as its learned terms, so what diagnose fits,
+    // scores and reports is exactly what `predict` and the FMU run from augmented.json (the
+    // rate deficits first and clamped where they would stop the swarm, then the changes in mm
+    // and the relative changes on top, in the model's order).
     let mut corr = vec![[0.0; 2]; map.len()];
     let mut map2 = map.to_vec();
-    for (_, sh) in aug
-        .learned
-        .iter()
-        .filter(|(_, s)| steady_axes(s.family.axis))
-    {
+    if aug.learned.iter().any(|(_, s)| steady_axes(s.family.axis)) {
+        let mut mf = m.clone();
+        for (kind, sh) in aug
+            .learned
+            .iter()
+            .filter(|(_, s)| steady_axes(s.family.axis))
+        {
+            super::learned::push(&mut mf, *kind, sh, aug.ctx.b_mid);
+        }
         for (p, v) in map2.iter_mut().enumerate() {
-            let scale = (sh.family.amp * ln_b[p]).exp();
-            let c = sh.at(x_of(sh.family.axis, p, 0.0, 0.0)).map(|c| c * scale);
-            let before = *v;
-            match sh.family.mode {
-                Mode::Relative | Mode::Aspect => {
-                    for a in 0..2 {
-                        v[a] *= 1.0 + c[a];
-                    }
-                }
-                Mode::Rate => {
-                    let (z, f) = ds.points[p];
-                    let shifted = map_point(m, z, f - c[0]);
-                    for a in 0..2 {
-                        v[a] += shifted[a] - map[p][a];
-                    }
-                }
-                _ => {
-                    for a in 0..2 {
-                        v[a] += c[a];
-                    }
-                }
-            }
+            let (z, f) = ds.points[p];
+            let w = map_point(&mf, z, f);
             for a in 0..2 {
-                corr[p][a] += v[a] - before[a];
+                corr[p][a] = w[a] - v[a];
+                v[a] = w[a];
             }
         }
     }
@@ -298,7 +286,7 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
                 .map(|c| c * scale);
             for a in 0..2 {
                 match sh.family.mode {
-                    Mode::Relative | Mode::Aspect => out[i][a] *= 1.0 + c[a],
+                    Mode::Relative | Mode::Aspect | Mode::Common => out[i][a] *= 1.0 + c[a],
                     Mode::StepFraction => out[i][a] += c[a] * delta[a],
                     Mode::Add | Mode::Rate => out[i][a] += c[a],
                 }

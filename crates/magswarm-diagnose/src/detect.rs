@@ -103,21 +103,30 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
             Family::new(Axis::T, Mode::Add, shapes::knots_of(&rc.t, 8), 0.3),
         ),
     ];
-    if let Some(f) = since_family(rc, 0.3) {
+    if let Some(f) = since_family(rc, 0.3, 6) {
         out.push(("formation", "since_shape", f));
+    }
+    // An oscillating transient (underdamped formation) turns within a few seconds: knots
+    // as dense as the rows' times since a change allow, barely smoothed.
+    if let Some(f) = since_family(rc, 0.01, SINCE_FINE_KNOTS) {
+        out.push(("formation", "since_fine", f));
     }
     out.retain(|(_, _, f)| f.knots.len() >= 2);
     out
 }
 
-/// The transient family: knots over the times since a change of the rows that follow one, and
-/// a last knot well past them pinned at 0 (the transient dies out). None without changes.
-pub fn since_family(rc: &RowCtx, smooth: f64) -> Option<Family> {
+/// Knots of the fine transient family (an oscillation of a few seconds' period resolved on
+/// rows a second or half a second apart).
+pub const SINCE_FINE_KNOTS: usize = 16;
+
+/// The transient family: `k` knots over the times since a change of the rows that follow one,
+/// and a last knot well past them pinned at 0 (the transient dies out). None without changes.
+pub fn since_family(rc: &RowCtx, smooth: f64, k: usize) -> Option<Family> {
     let s: Vec<f64> = (0..rc.len())
         .filter(|&i| rc.delta[i][0] != 0.0 || rc.delta[i][1] != 0.0)
         .map(|i| rc.since[i])
         .collect();
-    let mut knots = shapes::knots_of(&s, 6);
+    let mut knots = shapes::knots_of(&s, k);
     let last = *knots.last()?;
     if knots.len() < 2 || last <= 0.0 {
         return None;
@@ -262,6 +271,20 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let mut alts: Vec<(&'static str, String, Kind, Option<usize>)> = Vec::new();
     let mut designs: Vec<(&'static str, &'static str, Solver)> = Vec::new();
     for (fam, name, f) in alternatives(ds, st.rc) {
+        if name == "since_fine" {
+            // The same transient within each visit only (each visit's mean taken out): a
+            // course after a change that the visit's offset cannot make, judged against the
+            // row noise rather than the visit noise (a long dwell resolves a small
+            // oscillation that the visit-to-visit scatter hides).
+            let g = Family {
+                within: true,
+                ..f.clone()
+            };
+            let (cols, pen) = shapes::columns(&g, st.rc);
+            if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
+                designs.push((fam, "since_within", s));
+            }
+        }
         let (cols, pen) = shapes::columns(&f, st.rc);
         if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
             designs.push((fam, name, s));
@@ -277,6 +300,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             designs.push(("lack_of_fit", "point_means", s));
         }
     }
+    let within: Vec<bool> = designs.iter().map(|d| d.1 == "since_within").collect();
     let solvers: Vec<Solver> = designs
         .into_iter()
         .map(|(fam, name, s)| {
@@ -316,8 +340,11 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         let s0 = linear::sse_axes(&e0);
         let drops: Vec<[f64; 2]> = solvers
             .iter()
-            .map(|s| {
+            .zip(&within)
+            .map(|(s, &within)| {
                 let s1 = linear::sse_axes(&s.residual(y));
+                // A within-visit alternative sees no visit offsets: not studentised by them.
+                let rho = if within { [1.0, 1.0] } else { rho };
                 [(s0[0] - s1[0]) / rho[0], (s0[1] - s1[1]) / rho[1]]
             })
             .collect();

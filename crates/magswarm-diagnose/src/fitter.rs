@@ -3,6 +3,7 @@
 
 use super::candidates::{self, Augmented, Ctx};
 use super::data::Dataset;
+use super::shapes::Mode;
 use magswarm_fit::lm::{self, LevenbergMarquardt};
 use magswarm_identify::params::{self, Free};
 use magswarm_model::effects::FitParam as EffParam;
@@ -20,6 +21,13 @@ enum Knob {
         idx: usize,
         def: EffParam,
     },
+    /// The height at knot `idx` of learned shape `term`, a rotation-rate deficit \[Hz\] (one
+    /// value for both radii), within +-`bound`.
+    Rate {
+        term: usize,
+        idx: usize,
+        bound: f64,
+    },
 }
 
 impl Knob {
@@ -31,6 +39,7 @@ impl Knob {
                 f.def.transform == magswarm_identify::params::Transform::Log,
             ),
             Knob::Eff { def, .. } => (def.lo, def.hi, def.log),
+            Knob::Rate { bound, .. } => (-bound, bound, false),
         }
     }
     fn to_theta(self, u: f64) -> f64 {
@@ -54,12 +63,18 @@ impl Knob {
         match self {
             Knob::Base(f) => params::get(&a.model, f.name()),
             Knob::Eff { effect, idx, .. } => a.effects[*effect].1[*idx],
+            Knob::Rate { term, idx, .. } => a.learned[*term].1.values[0][*idx],
         }
     }
     fn set(&self, a: &mut Augmented, v: f64) {
         match self {
             Knob::Base(f) => params::set(&mut a.model, f.name(), v),
             Knob::Eff { effect, idx, .. } => a.effects[*effect].1[*idx] = v,
+            Knob::Rate { term, idx, .. } => {
+                let vals = &mut a.learned[*term].1.values;
+                vals[0][*idx] = v;
+                vals[1][*idx] = v;
+            }
         }
     }
 }
@@ -83,17 +98,23 @@ struct Problem<'a> {
     train: &'a [usize],
     sd: [f64; 2],
     u: DVector<f64>,
+    /// Weight of the second differences of the rate knobs' heights (0: none).
+    smooth: f64,
 }
 
 impl Problem<'_> {
     fn res_of(&self, a: &Augmented) -> DVector<f64> {
         let pred = candidates::predict(a, self.ds);
-        let mut out = DVector::zeros(2 * self.train.len());
+        let rough = roughness(self.knobs, a, self.smooth);
+        let mut out = DVector::zeros(2 * self.train.len() + rough.len());
         for (k, &i) in self.train.iter().enumerate() {
             for ax in 0..2 {
                 let v = (pred[i][ax] - self.ds.rows[i].r[ax]) / self.sd[ax];
                 out[2 * k + ax] = if v.is_finite() { v } else { 1e6 };
             }
+        }
+        for (k, r) in rough.into_iter().enumerate() {
+            out[2 * self.train.len() + k] = r;
         }
         out
     }
@@ -176,7 +197,7 @@ pub fn fit(
         let mut ranked: Vec<(f64, Augmented)> = inits
             .into_iter()
             .map(|a| {
-                let (aug, cost) = local_fit(&a, &held, ds, train, sd, 8);
+                let (aug, cost) = local_fit(&a, &held, ds, train, sd, 8, 0.0);
                 (cost, aug)
             })
             .collect();
@@ -185,7 +206,7 @@ pub fn fit(
     }
     let mut best: Option<FitResult> = None;
     for init in inits {
-        let (mut aug, cost) = local_fit(&init, &knobs, ds, train, sd, 30);
+        let (mut aug, cost) = local_fit(&init, &knobs, ds, train, sd, 30, 0.0);
         if best.as_ref().map(|b| cost < b.cost).unwrap_or(true) {
             aug.sync_model();
             let mut at_bound = Vec::new();
@@ -226,6 +247,7 @@ fn local_fit(
     train: &[usize],
     sd: [f64; 2],
     patience: usize,
+    smooth: f64,
 ) -> (Augmented, f64) {
     let u0 = DVector::from_iterator(knobs.len(), knobs.iter().map(|k| k.to_u(k.get(init))));
     let prob = Problem {
@@ -235,6 +257,7 @@ fn local_fit(
         train,
         sd,
         u: u0.clone(),
+        smooth,
     };
     let prob = lm::minimize(
         prob,
@@ -253,4 +276,94 @@ fn local_fit(
         f64::INFINITY
     };
     (prob.aug, cost)
+}
+
+/// The weighted second differences of the heights of each learned rate shape among `knobs`
+/// (consecutive knobs of one shape), as extra residuals.
+fn roughness(knobs: &[Knob], a: &Augmented, smooth: f64) -> Vec<f64> {
+    if smooth <= 0.0 {
+        return Vec::new();
+    }
+    let w = smooth.sqrt();
+    let mut out = Vec::new();
+    for (term, (_, sh)) in a.learned.iter().enumerate() {
+        let idx: Vec<usize> = knobs
+            .iter()
+            .filter_map(|k| match k {
+                Knob::Rate { term: t, idx, .. } if *t == term => Some(*idx),
+                _ => None,
+            })
+            .collect();
+        let h = &sh.values[0];
+        for j in idx.windows(3) {
+            out.push(w * (h[j[0]] - 2.0 * h[j[1]] + h[j[2]]));
+        }
+    }
+    out
+}
+
+/// The final model where a learned shape is a rate deficit: the one learned mode that acts
+/// nonlinearly (the map re-evaluated at the slower rotation, clamped where the swarm would
+/// stop), so the linear fit's heights, exact only near the baseline, are refitted with the
+/// free parameters and the library forms by the nonlinear fitter, from the linear solution and
+/// from no deficit, keeping the better (a weak second-difference penalty holds the knots the
+/// data do not reach). Returns `start` unchanged when it has no rate shape.
+pub fn refit_rates(
+    start: &Augmented,
+    free: &[Free],
+    ds: &Dataset,
+    ctx: &Ctx,
+    train: &[usize],
+    sd: [f64; 2],
+) -> Augmented {
+    let bound = 2.0 * ctx.f_max.max(1.0);
+    let mut knobs: Vec<Knob> = free.iter().map(|f| Knob::Base(*f)).collect();
+    for (e, (name, _)) in start.effects.iter().enumerate() {
+        for (i, def) in candidates::params(*name, ctx).into_iter().enumerate() {
+            knobs.push(Knob::Eff {
+                effect: e,
+                idx: i,
+                def,
+            });
+        }
+    }
+    let n_before = knobs.len();
+    for (term, (_, sh)) in start.learned.iter().enumerate() {
+        if sh.family.mode == Mode::Rate {
+            let free_knots = sh.values[0].len() - usize::from(sh.family.pin_last);
+            for idx in 0..free_knots {
+                knobs.push(Knob::Rate { term, idx, bound });
+            }
+        }
+    }
+    if knobs.len() == n_before {
+        return start.clone();
+    }
+    let mut zero = start.clone();
+    for (_, sh) in zero.learned.iter_mut() {
+        if sh.family.mode == Mode::Rate {
+            for v in sh.values.iter_mut() {
+                v.iter_mut().for_each(|x| *x = 0.0);
+            }
+        }
+    }
+    let clamp = |mut a: Augmented| {
+        for k in &knobs {
+            if let Knob::Rate { .. } = k {
+                let v = k.get(&a).clamp(-bound, bound);
+                k.set(&mut a, v);
+            }
+        }
+        a
+    };
+    let mut best: Option<(f64, Augmented)> = None;
+    for init in [clamp(start.clone()), zero] {
+        let (aug, cost) = local_fit(&init, &knobs, ds, train, sd, 30, 1.0);
+        if best.as_ref().map(|b| cost < b.0).unwrap_or(true) {
+            best = Some((cost, aug));
+        }
+    }
+    let mut aug = best.expect("two starts").1;
+    aug.sync_model();
+    aug
 }

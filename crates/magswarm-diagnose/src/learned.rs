@@ -28,7 +28,7 @@ pub fn term(m: &Model, kind: EffectKind, sh: &Shape, b_mid: f64) -> LearnedTerm 
             Mode::Add => LearnedMode::AddMm,
             // An aspect change is a relative change with opposite heights (the shape holds
             // them per radius).
-            Mode::Relative | Mode::Aspect => LearnedMode::Relative,
+            Mode::Relative | Mode::Aspect | Mode::Common => LearnedMode::Relative,
             Mode::StepFraction => LearnedMode::StepFraction,
             Mode::Rate => LearnedMode::RateHz,
         },

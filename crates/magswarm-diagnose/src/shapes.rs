@@ -9,9 +9,9 @@
 //! | effect | axis | acts as |
 //! | --- | --- | --- |
 //! | `phase_lag` | f, optionally scaled by the field, `f (B(z)/B_mid)^-nu` (an onset that moves with the field) | mm added to the steady radii |
-//! | `cohesion_loss` | z_m | mm added to the steady radii |
+//! | `cohesion_loss` | z_m | a relative change shared by both radii, or mm added to one radius |
 //! | `particle_drift` | session time | relative change of the observed radii |
-//! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating) |
+//! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating; optionally only what varies within each visit, for naming) |
 //!
 //! The heights are unknowns of a penalised linear model ([`super::linear`]): the roughness
 //! penalty keeps a shape smooth unless the data insist (a sudden particle loss is a steep
@@ -76,6 +76,10 @@ pub enum Mode {
     /// radii (stretched along one principal direction, squeezed along the other). Written
     /// into the model file as a relative change with opposite heights.
     Aspect,
+    /// A relative change of the swarm as a whole [-]: r1 (1 + v) and r2 (1 + v), one value
+    /// for both radii (a loosening swarm grows along both principal directions: the
+    /// signature that tells a cohesion loss from an aspect change).
+    Common,
 }
 
 impl Mode {
@@ -87,6 +91,7 @@ impl Mode {
             Mode::StepFraction => "step_fraction",
             Mode::Rate => "rate_hz",
             Mode::Aspect => "aspect",
+            Mode::Common => "common",
         }
     }
 }
@@ -114,6 +119,10 @@ pub struct Family {
     /// The heights must run one way along the axis (a drift, a growth past an onset): each
     /// radius' heights are a monotone block of the fit.
     pub monotone: Option<linear::Monotone>,
+    /// Only what varies within each visit counts (each visit's mean of the columns taken
+    /// out): evidence of a transient that no visit offset can make, for naming; the shape
+    /// that enters a model is always the whole one.
+    pub within: bool,
 }
 
 impl Family {
@@ -128,6 +137,7 @@ impl Family {
             amp: 0.0,
             axes: [true; 2],
             monotone: None,
+            within: false,
         }
     }
 }
@@ -211,6 +221,8 @@ pub struct RowCtx {
     pub pred: Vec<[f64; 2]>,
     /// Sensitivity of the steady map to the drive frequency at each row's point [mm/Hz].
     pub dmap_df: Vec<[f64; 2]>,
+    /// Visit of each row.
+    pub visit: Vec<usize>,
 }
 
 impl RowCtx {
@@ -245,6 +257,7 @@ impl RowCtx {
             delta,
             pred: pred.to_vec(),
             dmap_df: ds.rows.iter().map(|r| dmap_df[r.point]).collect(),
+            visit: ds.rows.iter().map(|r| r.visit).collect(),
         }
     }
 
@@ -283,7 +296,7 @@ impl RowCtx {
         scale
             * match f.mode {
                 Mode::Add => 1.0,
-                Mode::Relative => self.pred[i][a],
+                Mode::Relative | Mode::Common => self.pred[i][a],
                 Mode::StepFraction => self.delta[i][a],
                 Mode::Rate => -self.dmap_df[i][a],
                 Mode::Aspect => self.pred[i][a] * if a == 0 { -1.0 } else { 1.0 },
@@ -297,9 +310,9 @@ fn free_knots(f: &Family) -> usize {
 }
 
 /// One set of heights for both radii (a rate deficit acts on the whole swarm, an aspect change
-/// on both principal radii at once).
+/// and a change of the whole swarm on both principal radii at once).
 fn shared(f: &Family) -> bool {
-    matches!(f.mode, Mode::Rate | Mode::Aspect)
+    matches!(f.mode, Mode::Rate | Mode::Aspect | Mode::Common)
 }
 
 /// The weighted columns of a family (stacked rows x 2 free-knot blocks, r1's then r2's) and
@@ -323,6 +336,9 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
             }
         }
     }
+    if f.within {
+        within_visits(&rc.visit, &mut a);
+    }
     let info = (0..blocks * k)
         .map(|c| a.column(c).norm_squared())
         .sum::<f64>()
@@ -330,6 +346,27 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     let info = info.max(1e-12);
     let pen = linear::roughness(k, blocks, f.smooth * info, 1e-3 * info);
     (a, pen)
+}
+
+/// Takes each visit's mean per axis out of every column (stacked rows): what is left varies
+/// within a visit.
+pub fn within_visits(visit: &[usize], a: &mut DMatrix<f64>) {
+    let nv = visit.iter().copied().max().map_or(0, |m| m + 1);
+    for c in 0..a.ncols() {
+        let mut sum = vec![[0.0f64; 2]; nv];
+        let mut n = vec![0.0f64; nv];
+        for (i, &v) in visit.iter().enumerate() {
+            for ax in 0..2 {
+                sum[v][ax] += a[(2 * i + ax, c)];
+            }
+            n[v] += 1.0;
+        }
+        for (i, &v) in visit.iter().enumerate() {
+            for ax in 0..2 {
+                a[(2 * i + ax, c)] -= sum[v][ax] / n[v].max(1.0);
+            }
+        }
+    }
 }
 
 /// The columns, penalty and monotone blocks of a family, as a design fragment.
@@ -397,6 +434,7 @@ mod tests {
                 amp: 0.0,
                 axes: [true; 2],
                 monotone: None,
+                within: false,
                 smooth: 0.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],

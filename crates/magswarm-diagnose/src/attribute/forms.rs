@@ -200,6 +200,8 @@ pub(super) fn choose_forms(
         // the linear fit's one step from the baseline is exact only near it.
         aug = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
     }
+    // A learned rate deficit acts nonlinearly: its heights refitted with the rest.
+    aug = fitter::refit_rates(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row());
     aug.sync_model();
     for (name, sh) in &aug.learned {
         if let Some(e) = out.evals.iter_mut().find(|e| e.kind == *name) {
@@ -260,7 +262,7 @@ fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
     for v in vs {
         let mut best = v.clone();
         if let Variant::Shape(f) = v {
-            if !matches!(f.mode, Mode::Rate | Mode::Aspect) {
+            if !matches!(f.mode, Mode::Rate | Mode::Aspect | Mode::Common) {
                 let score = |axes: [bool; 2]| -> Option<f64> {
                     let g = Family { axes, ..f.clone() };
                     let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;

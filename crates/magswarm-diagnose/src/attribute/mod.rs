@@ -63,6 +63,10 @@ use rayon::prelude::*;
 /// null (one column) can lie beyond it with a gain no user would notice.
 pub const MIN_GAIN: f64 = 2.0;
 
+/// Share of the local anomaly's excess over its null quantile that an effect must keep on top
+/// of the anomaly's box to be named instead.
+const MARGIN: f64 = 0.3;
+
 /// Ridge on the baseline's free-parameter directions (unit-norm columns).
 const JAC_RIDGE: f64 = 1e-2;
 
@@ -322,7 +326,7 @@ pub fn attribute(
                 // millimetre).
                 let g = gain(&s0, &s1, &lin.y, [1.0, 1.0]);
                 let q = quantile(&scored[e].null, 1.0 - st.alpha);
-                g >= MIN_GAIN.max(q) && g - q >= 0.3 * excess(&scored[b])
+                g >= MIN_GAIN.max(q) && g - q >= MARGIN * excess(&scored[b])
             });
             // A near tie goes to the effect: a physical description that explains the box
             // nearly as well is the better report (the leftover, if any, is tested next).
@@ -339,6 +343,37 @@ pub fn attribute(
                         .is_some_and(|g| g < q_box.max(MIN_GAIN))
             });
             if let Some(e) = close.or(explains).or(rescued) {
+                best = Some(e);
+            }
+        }
+        // The off-axis swarm is the rarer explanation: `centroid_offset` is named over a
+        // passing effect with an axis of its own (a cohesion loss over z_m, a phase lag over
+        // f, a drift, a formation) only when it keeps a gain beyond its own null on top of
+        // that effect's shape, i.e. when it carries a signature the other cannot (an aspect
+        // change the other's shape does not take up). Otherwise the common explanation, the
+        // one that describes the gap as well, is named.
+        if let Some(b) =
+            best.filter(|&b| scored[b].name == Cand::Effect(EffectKind::CentroidOffset))
+        {
+            let q = quantile(&scored[b].null, 1.0 - st.alpha).max(MIN_GAIN);
+            let common = order.iter().copied().find(|&e| {
+                matches!(scored[e].name, Cand::Effect(k) if k != EffectKind::CentroidOffset && k != EffectKind::CameraBias)
+                    && nested_gain(lin, &cur, scored[e].best.as_ref(), scored[b].best.as_ref())
+                        .is_some_and(|g| {
+                            log::debug!(
+                                "centroid_offset on top of {}: gain {g:.1}, null quantile {q:.1}, own excess {:.1}",
+                                scored[e].name.name(),
+                                excess(&scored[b])
+                            );
+                            g < q
+                        })
+            });
+            if let Some(e) = common {
+                log::debug!(
+                    "centroid_offset adds nothing beyond its null on top of {}: {} named",
+                    scored[e].name.name(),
+                    scored[e].name.name()
+                );
                 best = Some(e);
             }
         }
@@ -397,7 +432,11 @@ pub fn attribute(
             out.anomaly_won = true;
             break;
         }
-        let v = scored[b].best.clone().expect("a variant");
+        let v = match scored[b].best.clone().expect("a variant") {
+            // Named on what varies within the visits: the whole shape enters the design.
+            Variant::Shape(f) if f.within => Variant::Shape(Family { within: false, ..f }),
+            v => v,
+        };
         if let Some(more) = columns_of(&v, &lin.rc) {
             cur = cur.append(&more);
         }
@@ -426,6 +465,7 @@ pub fn attribute(
     }
     // The form of each named effect, and the final model.
     let (aug, design, learned) = choose_forms(lin, &named, &mut out, st, progress);
+    let aug = never_worse(lin, aug);
     // Detection on what the final model leaves (the closing round).
     if out.rounds.len() < named.len() {
         if let Some(d) = detect::detect(&setting(lin, &design, &st), st.alpha) {
@@ -475,4 +515,80 @@ fn box_left(lin: &Linear, cur: &Design, v: Option<&Variant>) -> Option<f64> {
     let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
     let s1 = Solver::new(&d.extend(&bc, &bp), &lin.fold_of_stacked, lin.k)?;
     Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+}
+
+/// The withheld gain of variant `add` on top of design `cur` with variant `base`: what `add`
+/// explains that `base` does not.
+fn nested_gain(
+    lin: &Linear,
+    cur: &Design,
+    base: Option<&Variant>,
+    add: Option<&Variant>,
+) -> Option<f64> {
+    let d = cur.append(&columns_of(base?, &lin.rc)?);
+    let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
+    let s1 = Solver::new(
+        &d.append(&columns_of(add?, &lin.rc)?),
+        &lin.fold_of_stacked,
+        lin.k,
+    )?;
+    Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+}
+
+/// Weighted in-sample sum of squares of a model on the log (what `predict` replays).
+fn sse_of(lin: &Linear, a: &Augmented) -> f64 {
+    let p = candidates::predict(a, lin.ds);
+    lin.ds
+        .rows
+        .iter()
+        .zip(&p)
+        .map(|(r, q)| {
+            (0..2)
+                .map(|ax| {
+                    let e = lin.rc.w[ax] * (r.r[ax] - q[ax]);
+                    if e.is_finite() {
+                        e * e
+                    } else {
+                        1e6
+                    }
+                })
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// The written model must fit the log at least as well as the baseline it extends: the
+/// linear step that carries the learned heights and the free parameters into the model file
+/// is exact only near the baseline (a large rate deficit, a free parameter driven to its
+/// bound). Where it fits worse, the free parameters are refitted by the nonlinear fitter from
+/// the baseline's values with the effects held; if that is still worse, the baseline's
+/// parameters are kept with the effects' shapes as fitted.
+fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
+    let base = sse_of(lin, lin.base);
+    let now = sse_of(lin, &aug);
+    if now <= base {
+        return aug;
+    }
+    log::warn!(
+        "the augmented model's linear step fits the log worse than the baseline (weighted SS {now:.4e} > {base:.4e}); refitting its free parameters"
+    );
+    let mut start = aug.clone();
+    start.model = lin.base.model.clone();
+    let all: Vec<usize> = (0..lin.ds.rows.len()).collect();
+    let fr = fitter::fit(
+        &start,
+        lin.free,
+        lin.ds,
+        lin.ctx,
+        &all,
+        lin.noise.row(),
+        &[],
+    );
+    let refit = sse_of(lin, &fr.aug);
+    let held = sse_of(lin, &start);
+    if refit <= held && refit.is_finite() {
+        fr.aug
+    } else {
+        start
+    }
 }

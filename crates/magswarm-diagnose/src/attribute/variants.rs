@@ -68,31 +68,54 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
         }
     }
     out.push((Cand::Effect(EffectKind::PhaseLag), v));
+    // A cohesion loss loosens the whole swarm: both radii grow together past an onset (a
+    // relative change shared by both radii), or it shows in one radius only. It never
+    // stretches one principal radius while squeezing the other: that is an aspect change,
+    // the signature of an off-axis swarm, and a cohesion shape free per radius would take
+    // it from `centroid_offset`.
     let mut v = Vec::new();
-    for mode in [Mode::Add, Mode::Relative] {
-        for s in smooths {
-            v.push(Variant::Shape(Family::new(
-                Axis::Z,
-                mode,
-                shapes::knots_of(&zs, 8),
-                s,
-            )));
+    let kz = shapes::knots_of(&zs, 8);
+    for s in smooths {
+        v.push(Variant::Shape(Family::new(
+            Axis::Z,
+            Mode::Common,
+            kz.clone(),
+            s,
+        )));
+    }
+    for axes in [[true, false], [false, true]] {
+        for s in [0.1, 1.0] {
+            v.push(Variant::Shape(Family {
+                axes,
+                ..Family::new(Axis::Z, Mode::Add, kz.clone(), s)
+            }));
         }
     }
     out.push((Cand::Effect(EffectKind::CohesionLoss), v));
-    if let Some(f) = detect::since_family(rc, 0.1) {
-        out.push((
-            Cand::Effect(EffectKind::FormationLag),
-            smooths
-                .iter()
-                .map(|&s| {
-                    Variant::Shape(Family {
-                        smooth: s,
-                        ..f.clone()
-                    })
+    if let Some(f) = detect::since_family(rc, 0.1, 6) {
+        let mut v: Vec<Variant> = smooths
+            .iter()
+            .map(|&s| {
+                Variant::Shape(Family {
+                    smooth: s,
+                    ..f.clone()
                 })
-                .collect(),
-        ));
+            })
+            .collect();
+        // Any stable transient, an underdamped one included: knots as dense as the rows'
+        // times since a change allow, where they resolve more than the coarse family does.
+        if let Some(fine) = detect::since_family(rc, 0.01, detect::SINCE_FINE_KNOTS)
+            .filter(|g| g.knots.len() > f.knots.len())
+        {
+            // Named also on what varies within each visit alone (judged against the row
+            // noise, not the visits' offsets); the whole shape enters the model.
+            v.push(Variant::Shape(Family {
+                within: true,
+                ..fine.clone()
+            }));
+            v.push(Variant::Shape(fine));
+        }
+        out.push((Cand::Effect(EffectKind::FormationLag), v));
     }
     out.push((
         Cand::Effect(EffectKind::ParticleDrift),

@@ -70,7 +70,12 @@ fn param_strings(kind: EffectKind, m: &magswarm_model::Model) -> Vec<String> {
 /// The augmented model's own model file: the baseline's refitted parameters with every
 /// accepted effect switched on at its fitted values (runs as is in the FMU and `predict`).
 fn augmented_model(d: &Diagnosis) -> magswarm_model::Model {
-    let mut m = d.attr.augmented.full.aug.model_file();
+    // Nothing named: the augmented model is the baseline itself.
+    let mut m = if d.attr.accepted.is_empty() {
+        d.ident.model.clone()
+    } else {
+        d.attr.augmented.full.aug.model_file()
+    };
     m.name = format!("{}-augmented", d.ident.model.name);
     m.provenance = format!(
         "magswarm diagnose {} from {}: baseline refitted with the accepted effects [{}] switched on",
