@@ -316,3 +316,54 @@ pub fn sessions(logs: &[Log], rule: idata::SettleRule, model: &Model) -> Vec<Ses
     idata::classify(&mut s, rule, model);
     s
 }
+
+/// Per-visit residual summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VisitRes {
+    /// Mean residual of the settled rows (all rows when none is settled) \[mm\].
+    pub e: Vec<[f64; 2]>,
+    /// Rows averaged.
+    pub n: Vec<usize>,
+}
+
+/// Visit residuals from row residuals.
+pub fn visit_residuals(ds: &Dataset, res: &[[f64; 2]]) -> VisitRes {
+    let mut e = Vec::with_capacity(ds.visits.len());
+    let mut n = Vec::with_capacity(ds.visits.len());
+    for v in 0..ds.visits.len() {
+        let mut rows = ds.settled_rows(v);
+        if rows.is_empty() {
+            rows = ds.visits[v].rows.clone();
+        }
+        let k = rows.len().max(1) as f64;
+        let mut m = [0.0; 2];
+        for &i in &rows {
+            m[0] += res[i][0] / k;
+            m[1] += res[i][1] / k;
+        }
+        e.push(m);
+        n.push(rows.len());
+    }
+    VisitRes { e, n }
+}
+
+/// Up to `k` bins of sorted distinct values: (lo, hi) edges per bin.
+pub fn level_bins(vals: &[f64], k: usize) -> Vec<(f64, f64)> {
+    let mut v = vals.to_vec();
+    v.sort_by(|a, b| a.total_cmp(b));
+    v.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    if v.is_empty() {
+        return Vec::new();
+    }
+    if v.len() <= k {
+        return v.iter().map(|&x| (x, x)).collect();
+    }
+    let n = v.len();
+    (0..k)
+        .map(|b| {
+            let i0 = b * n / k;
+            let i1 = ((b + 1) * n / k).max(i0 + 1) - 1;
+            (v[i0], v[i1])
+        })
+        .collect()
+}

@@ -194,7 +194,7 @@ pub fn box_scan(
     proper: bool,
     joint: bool,
 ) -> (f64, usize, (usize, usize), (usize, usize)) {
-    let vr = super::gap::visit_residuals(ds, res);
+    let vr = super::data::visit_residuals(ds, res);
     let (cell, nz, nf) = noise::cells(ds);
     let nv = ds.visits.len();
     // 2-D prefix sums of residual (per radius) and count over the cells.

@@ -12,7 +12,6 @@
 //! the differences, from inflating it.
 
 use super::data::Dataset;
-use super::gap;
 use super::stats;
 use nalgebra::DVector;
 use rand::SeedableRng;
@@ -65,8 +64,8 @@ pub const MIN_PAIRS: usize = 12;
 /// Cell (z bin, f bin) of every visit on the binned grid of operating points.
 pub fn cells(ds: &Dataset) -> (Vec<(usize, usize)>, usize, usize) {
     let (zs, fs) = ds.levels();
-    let zb = gap::level_bins(&zs, 8);
-    let fb = gap::level_bins(&fs, 10);
+    let zb = super::data::level_bins(&zs, 8);
+    let fb = super::data::level_bins(&fs, 10);
     let find = |b: &[(f64, f64)], x: f64| {
         b.iter()
             .position(|&(lo, hi)| x >= lo - 1e-9 && x <= hi + 1e-9)
@@ -107,7 +106,7 @@ pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
     }
     let rows_per_visit = settled_n as f64 / ds.visits.len().max(1) as f64;
     // Visit noise: differences of neighbouring or repeated visits.
-    let vr = gap::visit_residuals(ds, res);
+    let vr = super::data::visit_residuals(ds, res);
     let (cell, nz, nf) = cells(ds);
     let mut first: Vec<Option<usize>> = vec![None; nz * nf];
     for (v, &(zi, fi)) in cell.iter().enumerate() {

@@ -34,37 +34,9 @@ use super::stats;
 use rand::{seq::SliceRandom, SeedableRng};
 
 mod regions;
+/// Kept at these paths for the report and the tests.
+pub use super::data::{level_bins, visit_residuals, VisitRes};
 pub use regions::*;
-
-/// Per-visit residual summary.
-#[derive(Debug, Clone, PartialEq)]
-pub struct VisitRes {
-    /// Mean residual of the settled rows (all rows when none is settled) \[mm\].
-    pub e: Vec<[f64; 2]>,
-    /// Rows averaged.
-    pub n: Vec<usize>,
-}
-
-/// Visit residuals from row residuals.
-pub fn visit_residuals(ds: &Dataset, res: &[[f64; 2]]) -> VisitRes {
-    let mut e = Vec::with_capacity(ds.visits.len());
-    let mut n = Vec::with_capacity(ds.visits.len());
-    for v in 0..ds.visits.len() {
-        let mut rows = ds.settled_rows(v);
-        if rows.is_empty() {
-            rows = ds.visits[v].rows.clone();
-        }
-        let k = rows.len().max(1) as f64;
-        let mut m = [0.0; 2];
-        for &i in &rows {
-            m[0] += res[i][0] / k;
-            m[1] += res[i][1] / k;
-        }
-        e.push(m);
-        n.push(rows.len());
-    }
-    VisitRes { e, n }
-}
 
 /// Lack-of-fit test of one axis.
 #[derive(Debug, Clone, Copy, PartialEq)]

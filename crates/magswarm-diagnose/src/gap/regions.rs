@@ -41,31 +41,6 @@ pub struct Region {
     pub visits: Vec<usize>,
 }
 
-/// Up to `k` bins of sorted distinct values: (lo, hi) edges per bin.
-pub fn level_bins(vals: &[f64], k: usize) -> Vec<(f64, f64)> {
-    bins(vals, k)
-}
-
-fn bins(vals: &[f64], k: usize) -> Vec<(f64, f64)> {
-    let mut v = vals.to_vec();
-    v.sort_by(|a, b| a.total_cmp(b));
-    v.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-    if v.is_empty() {
-        return Vec::new();
-    }
-    if v.len() <= k {
-        return v.iter().map(|&x| (x, x)).collect();
-    }
-    let n = v.len();
-    (0..k)
-        .map(|b| {
-            let i0 = b * n / k;
-            let i1 = ((b + 1) * n / k).max(i0 + 1) - 1;
-            (v[i0], v[i1])
-        })
-        .collect()
-}
-
 fn in_bin(x: f64, b: (f64, f64)) -> bool {
     x >= b.0 - 1e-9 && x <= b.1 + 1e-9
 }
@@ -92,8 +67,8 @@ pub fn localise(
     let ffull = (fs[0], fs[fs.len() - 1]);
     let mut out = Vec::new();
     if gt.families.contains(&"inputs") || gt.families.contains(&"lack_of_fit") {
-        let zb = bins(&zs, 8);
-        let fb = bins(&fs, 10);
+        let zb = level_bins(&zs, 8);
+        let fb = level_bins(&fs, 10);
         // (axis, zi0, zi1, fi0, fi1, mean, p, visits)
         type Cand = (usize, usize, usize, usize, usize, f64, f64, Vec<usize>);
         let mut cands: Vec<Cand> = Vec::new();
@@ -211,7 +186,7 @@ pub fn localise(
     }
     if gt.families.contains(&"drift") {
         let t: Vec<f64> = ds.visits.iter().map(|v| v.t_mid).collect();
-        let tb = bins(&t, 6);
+        let tb = level_bins(&t, 6);
         let mut cands = Vec::new();
         for a in 0..2 {
             for b0 in 0..tb.len() {
