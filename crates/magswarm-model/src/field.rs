@@ -42,9 +42,18 @@ pub struct MagnetConfig {
     pub lateral_offset_m: f64,
 }
 
+/// The seed's magnet (20 mm radius NdFeB sphere, N42 remanence) and the reconstructed
+/// position of the swarm relative to it.
+pub const DEFAULT_MAGNET: MagnetConfig = MagnetConfig {
+    radius_m: 0.020,
+    remanence_t: 1.32,
+    z_offset_m: 0.000224,
+    lateral_offset_m: 0.006135,
+};
+
 impl Default for MagnetConfig {
     fn default() -> Self {
-        crate::reconstruction::DEFAULT_MAGNET
+        DEFAULT_MAGNET
     }
 }
 

@@ -30,8 +30,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::effects::NAMES;
-
 /// The variable a learned term runs along.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum LearnedAxis {
@@ -118,17 +116,18 @@ fn err(field: &str, message: String) -> LearnedError {
 }
 
 impl LearnedTerm {
-    /// Check the term: a known effect, at least two strictly increasing finite knots, heights
-    /// (and SDs) of the knots' length, finite (SDs non-negative), `step_fraction` only along
-    /// `since_change_s`, finite exponents.
-    pub fn validate(&self) -> Result<(), LearnedError> {
-        if !NAMES.contains(&self.effect.as_str()) {
+    /// Check the term: a known effect (one of `known_effects`, the model file's effect names,
+    /// passed in so this module stays below the effects), at least two strictly increasing
+    /// finite knots, heights (and SDs) of the knots' length, finite (SDs non-negative),
+    /// `step_fraction` only along `since_change_s`, finite exponents.
+    pub fn validate(&self, known_effects: &[&str]) -> Result<(), LearnedError> {
+        if !known_effects.contains(&self.effect.as_str()) {
             return Err(err(
                 "effect",
                 format!(
                     "unknown effect {:?} (known: {})",
                     self.effect,
-                    NAMES.join(", ")
+                    known_effects.join(", ")
                 ),
             ));
         }
@@ -274,7 +273,7 @@ mod tests {
     fn bad_terms_are_refused_naming_the_field() {
         let mut t = term();
         t.knots[2] = 18.5;
-        let e = t.validate().unwrap_err();
+        let e = t.validate(&crate::effects::NAMES).unwrap_err();
         assert_eq!(e.field, "knots");
         assert!(
             e.message.contains("not strictly increasing at index 2"),
@@ -282,17 +281,27 @@ mod tests {
         );
         let mut t = term();
         t.r2.pop();
-        assert_eq!(t.validate().unwrap_err().field, "r2");
+        assert_eq!(t.validate(&crate::effects::NAMES).unwrap_err().field, "r2");
         let mut t = term();
         t.mode = LearnedMode::StepFraction;
-        assert_eq!(t.validate().unwrap_err().field, "mode");
+        assert_eq!(
+            t.validate(&crate::effects::NAMES).unwrap_err().field,
+            "mode"
+        );
         let mut t = term();
         t.effect = "magic".into();
-        assert!(t.validate().unwrap_err().message.contains("phase_lag"));
+        assert!(t
+            .validate(&crate::effects::NAMES)
+            .unwrap_err()
+            .message
+            .contains("phase_lag"));
         let mut t = term();
         t.sd_r1 = Some(vec![0.1, -0.1, 0.1]);
-        assert_eq!(t.validate().unwrap_err().field, "sd_r1");
-        assert!(term().validate().is_ok());
+        assert_eq!(
+            t.validate(&crate::effects::NAMES).unwrap_err().field,
+            "sd_r1"
+        );
+        assert!(term().validate(&crate::effects::NAMES).is_ok());
     }
 
     #[test]

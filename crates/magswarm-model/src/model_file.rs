@@ -72,11 +72,6 @@ impl Default for Model {
 }
 
 impl Model {
-    /// The built-in paper model: Table I plus the documented reconstruction.
-    pub fn paper() -> Model {
-        crate::reconstruction::paper_model()
-    }
-
     /// Parse and validate a model from JSON text; `source_name` appears in errors.
     pub fn from_json_str(text: &str, source_name: &str) -> Result<Model, ModelError> {
         let de = &mut serde_json::Deserializer::from_str(text);
@@ -176,7 +171,7 @@ impl Model {
             c.fail(path, err.to_string());
         }
         for (i, t) in self.effects.learned.iter().enumerate() {
-            if let Err(e) = t.validate() {
+            if let Err(e) = t.validate(&crate::effects::NAMES) {
                 c.fail(&format!("effects.learned[{i}].{}", e.field), e.message);
             }
         }

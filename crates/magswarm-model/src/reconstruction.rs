@@ -18,7 +18,6 @@
 //! confinement gains scheduled on the inputs so that the equilibrium is the map.
 
 use crate::envelope::Envelope;
-use crate::field::MagnetConfig;
 use crate::model_file::{Effects, Model, SCHEMA};
 use crate::params::{Confinement, Conventions, DynParams, LogBase, SteadyParams};
 
@@ -59,14 +58,9 @@ pub const DEFAULT_CONVENTIONS: Conventions = Conventions {
     log_arg_floor: 1e-6,
 };
 
-/// The seed's magnet (20 mm radius NdFeB sphere, N42 remanence) and the reconstructed
-/// position of the swarm relative to it.
-pub const DEFAULT_MAGNET: MagnetConfig = MagnetConfig {
-    radius_m: 0.020,
-    remanence_t: 1.32,
-    z_offset_m: 0.000224,
-    lateral_offset_m: 0.006135,
-};
+/// The seed's magnet (kept here with the other reconstructed constants; defined beside
+/// [`crate::field::MagnetConfig`], whose default it is).
+pub use crate::field::DEFAULT_MAGNET;
 
 /// ODE (4) constants (not in the seed).
 pub const DEFAULT_DYNAMICS: DynParams = DynParams {
@@ -97,5 +91,12 @@ pub fn paper_model() -> Model {
         dynamics: DEFAULT_DYNAMICS,
         envelope: Envelope::default(),
         effects: Effects::default(),
+    }
+}
+
+impl Model {
+    /// The built-in paper model: Table I plus the documented reconstruction.
+    pub fn paper() -> Model {
+        paper_model()
     }
 }
