@@ -158,16 +158,7 @@ pub fn fit(
     sd: [f64; 2],
     effect_starts: &[Vec<f64>],
 ) -> FitResult {
-    let mut knobs: Vec<Knob> = free.iter().map(|f| Knob::Base(*f)).collect();
-    for (e, (name, _)) in start.effects.iter().enumerate() {
-        for (i, def) in candidates::params(*name, ctx).into_iter().enumerate() {
-            knobs.push(Knob::Eff {
-                effect: e,
-                idx: i,
-                def,
-            });
-        }
-    }
+    let knobs = knobs_of(start, free, ctx);
     let mut inits: Vec<Augmented> = Vec::new();
     if effect_starts.is_empty() || start.effects.is_empty() {
         inits.push(start.clone());
@@ -236,6 +227,21 @@ pub fn fit(
         }
     }
     best.expect("at least one start")
+}
+
+/// The knobs of `start`: the baseline's `free` parameters, then every active effect's.
+fn knobs_of(start: &Augmented, free: &[Free], ctx: &Ctx) -> Vec<Knob> {
+    let mut knobs: Vec<Knob> = free.iter().map(|f| Knob::Base(*f)).collect();
+    for (e, (name, _)) in start.effects.iter().enumerate() {
+        for (i, def) in candidates::params(*name, ctx).into_iter().enumerate() {
+            knobs.push(Knob::Eff {
+                effect: e,
+                idx: i,
+                def,
+            });
+        }
+    }
+    knobs
 }
 
 /// A bounded Levenberg-Marquardt fit of `knobs` from `init` on the rows `train`: the fitted
@@ -317,16 +323,7 @@ pub fn refit_rates(
     sd: [f64; 2],
 ) -> Augmented {
     let bound = 2.0 * ctx.f_max.max(1.0);
-    let mut knobs: Vec<Knob> = free.iter().map(|f| Knob::Base(*f)).collect();
-    for (e, (name, _)) in start.effects.iter().enumerate() {
-        for (i, def) in candidates::params(*name, ctx).into_iter().enumerate() {
-            knobs.push(Knob::Eff {
-                effect: e,
-                idx: i,
-                def,
-            });
-        }
-    }
+    let mut knobs = knobs_of(start, free, ctx);
     let n_before = knobs.len();
     for (term, (_, sh)) in start.learned.iter().enumerate() {
         if sh.family.mode == Mode::Rate {
