@@ -95,15 +95,7 @@ impl Dataset {
         for (si, s) in sessions.iter().enumerate() {
             ds.sessions.push(s.name.clone());
             ds.rows_total += s.rows.len();
-            let inputs: Vec<InputRow> = s
-                .rows
-                .iter()
-                .map(|r| InputRow {
-                    t: r.t,
-                    z_mm: r.z_mm,
-                    f_hz: r.f_hz,
-                })
-                .collect();
+            let inputs: Vec<InputRow> = s.rows.iter().map(idata::Row::input).collect();
             let rep = replay(baseline, &inputs, 1e-6).map_err(|source| DiagnoseError::Replay {
                 session: s.name.clone(),
                 source,

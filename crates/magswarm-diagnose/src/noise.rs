@@ -227,67 +227,12 @@ pub fn boot_p(obs: f64, null: &[f64]) -> f64 {
         return emp;
     }
     let (k, theta) = (m * m / v, v / m);
-    gamma_q(k, (obs - lo) / theta).min(emp)
-}
-
-/// Regularised upper incomplete gamma Q(a, x).
-pub fn gamma_q(a: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let lg = stats::ln_gamma(a);
-    if x < a + 1.0 {
-        // Series for P.
-        let (mut sum, mut del, mut ap) = (1.0 / a, 1.0 / a, a);
-        for _ in 0..1000 {
-            ap += 1.0;
-            del *= x / ap;
-            sum += del;
-            if del.abs() < sum.abs() * 1e-15 {
-                break;
-            }
-        }
-        (1.0 - sum * (-x + a * x.ln() - lg).exp()).clamp(0.0, 1.0)
-    } else {
-        // Continued fraction for Q (modified Lentz).
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..1000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let del = d * c;
-            h *= del;
-            if (del - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        ((-x + a * x.ln() - lg).exp() * h).clamp(0.0, 1.0)
-    }
+    stats::gamma_q(k, (obs - lo) / theta).min(emp)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn gamma_tail_matches_chi_square_tables() {
-        // chi2(4) 95 % quantile 9.488: Q(2, 4.744) = 0.05; chi2(10) 99 %: 23.209.
-        assert!((gamma_q(2.0, 9.488 / 2.0) - 0.05).abs() < 1e-4);
-        assert!((gamma_q(5.0, 23.209 / 2.0) - 0.01).abs() < 1e-4);
-        assert!((gamma_q(3.0, 0.5) - 0.985_612).abs() < 1e-5);
-    }
 
     #[test]
     fn bootstrap_p_is_empirical_inside_and_extrapolated_beyond() {

@@ -48,6 +48,17 @@ pub struct Row {
     pub line: usize,
 }
 
+impl Row {
+    /// The row's inputs, as [`crate::predict::replay`] takes them.
+    pub fn input(&self) -> crate::predict::InputRow {
+        crate::predict::InputRow {
+            t: self.t,
+            z_mm: self.z_mm,
+            f_hz: self.f_hz,
+        }
+    }
+}
+
 /// The rows of one session, in time order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Session {

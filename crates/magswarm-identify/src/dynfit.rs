@@ -43,11 +43,7 @@ pub fn transients(sessions: &[Session]) -> Vec<TransientSession> {
         if let Some(&(last, _)) = targets.last() {
             let inputs = s.rows[..=last]
                 .iter()
-                .map(|r| InputRow {
-                    t: r.t,
-                    z_mm: r.z_mm,
-                    f_hz: r.f_hz,
-                })
+                .map(crate::data::Row::input)
                 .collect();
             out.push(TransientSession { inputs, targets });
         }

@@ -64,15 +64,7 @@ pub(super) fn transient_trace(m: &Model, sessions: &[data::Session]) -> Option<V
             .filter(|r| r.r.is_some() && !r.settled)
             .count()
     })?;
-    let rows: Vec<crate::predict::InputRow> = s
-        .rows
-        .iter()
-        .map(|r| crate::predict::InputRow {
-            t: r.t,
-            z_mm: r.z_mm,
-            f_hz: r.f_hz,
-        })
-        .collect();
+    let rows: Vec<crate::predict::InputRow> = s.rows.iter().map(data::Row::input).collect();
     let pred = crate::predict::replay(m, &rows, 1e-6).ok()?;
     let (mut best, mut jump) = (None, 0.0);
     for k in 1..rows.len() {
