@@ -139,7 +139,7 @@ pub fn since_family(rc: &RowCtx, smooth: f64, k: usize) -> Option<Family> {
 }
 
 /// Tensor-product hats over (z_m, f): a smooth surface with interaction, ridge-penalised.
-fn surface(ds: &Dataset, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
+pub(crate) fn surface(ds: &Dataset, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     let (zs, fs) = ds.levels();
     let kz = shapes::knots_of(&zs, 5);
     let kf = shapes::knots_of(&fs, 6);

@@ -67,6 +67,12 @@ pub const MIN_GAIN: f64 = 2.0;
 /// of the anomaly's box to be named instead.
 const MARGIN: f64 = 0.3;
 
+/// Share of the visits' session times (adjusted R^2) that the inputs explain above which a
+/// drift is not named: in a sweep (z_m outer, f inner) the order makes session time a
+/// function of the inputs. A random order leaves chance levels (about the share of columns
+/// among visits, which the adjustment removes).
+const TIME_TIED_TO_INPUTS: f64 = 0.8;
+
 /// Ridge on the baseline's free-parameter directions (unit-norm columns).
 const JAC_RIDGE: f64 = 1e-2;
 
@@ -131,6 +137,9 @@ pub struct CandidateEval {
     pub variant: String,
     /// Reasons for doubt about the fitted parametric form (reported, not a veto).
     pub implausible: Vec<String>,
+    /// Why a candidate beyond its null was passed over (the design cannot tell it from
+    /// another explanation), for the report's notes.
+    pub notes: Vec<String>,
     /// Largest share of a significant region's residual it removes, and that region's index.
     pub signature: (f64, Option<usize>),
     /// With it, the gap tests find no significant gap left.
@@ -251,6 +260,13 @@ pub fn attribute(
         return out;
     }
     let cands = variants(lin);
+    let tied = time_tied_to_inputs(ds);
+    if tied >= TIME_TIED_TO_INPUTS {
+        log::info!(
+            "session time follows the inputs ({:.0} % of the visits' times explained by z_m and f): a drift cannot be told from an input effect in this log",
+            100.0 * tied
+        );
+    }
     let mut cur = lin.jac.clone();
     // Named effects: (name, the variants that entered the design).
     let mut named: Vec<(EffectKind, Vec<Variant>)> = Vec::new();
@@ -377,6 +393,35 @@ pub fn attribute(
                 best = Some(e);
             }
         }
+        // A drift is a course over session time. Where the log's order ties session time to
+        // the inputs (a sweep: z_m outer, f inner), a smooth course over time is also a smooth
+        // shape over (z_m, f), and a drift learned there would be replayed at other times on
+        // other logs. There a drift is named only when it keeps a gain beyond its own null on
+        // top of a smooth surface over (z_m, f) (a sudden loss does: no smooth surface makes
+        // it); otherwise the next passing candidate is named (or none), and the table says why.
+        let mut confounded: Option<usize> = None;
+        if let Some(b) = best.filter(|&b| {
+            scored[b].name == Cand::Effect(EffectKind::ParticleDrift)
+                && tied >= TIME_TIED_TO_INPUTS
+        }) {
+            let q = quantile(&scored[b].null, 1.0 - st.alpha).max(MIN_GAIN);
+            let (sc, sp) = detect::surface(ds, &lin.rc);
+            let on_surface = cur.extend(&sc, &sp);
+            let g = (|| {
+                let add = columns_of(scored[b].best.as_ref()?, &lin.rc)?;
+                let s0 = Solver::new(&on_surface, &lin.fold_of_stacked, lin.k)?;
+                let s1 = Solver::new(&on_surface.append(&add), &lin.fold_of_stacked, lin.k)?;
+                Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
+            })();
+            log::debug!("particle_drift on top of a surface over the inputs: gain {g:?}, null quantile {q:.1}");
+            if g.is_some_and(|g| g < q) {
+                confounded = Some(b);
+                best = order
+                    .iter()
+                    .copied()
+                    .find(|&e| e != b && scored[e].name != Cand::Anomaly);
+            }
+        }
         let winner = best.map(|b| scored[b].name);
         let new_name = winner.filter(|w| *w != Cand::Anomaly && !is_named(*w));
         for (i, s) in scored.iter().enumerate() {
@@ -392,7 +437,8 @@ pub fn attribute(
                     .iter()
                     .skip(1)
                     .filter(|&&j| {
-                        scored[j].name != Cand::Anomaly
+                        j != b
+                            && scored[j].name != Cand::Anomaly
                             && !is_named(scored[j].name)
                             && excess(&scored[j]) >= 0.8 * excess(&scored[b])
                     })
@@ -410,6 +456,11 @@ pub fn attribute(
                 p: s.p,
                 variant: s.variant.clone(),
                 implausible: Vec::new(),
+                notes: if confounded == Some(i) {
+                    vec![format!("not named: this log's order ties session time to the inputs ({:.0} % of the visits' times follow from z_m and f), and a smooth surface over (z_m, f) leaves it no gain beyond its null", 100.0 * tied)]
+                } else {
+                    Vec::new()
+                },
                 signature: (0.0, None),
                 closes_gap: false,
                 passed: s.p < st.alpha && s.gain >= MIN_GAIN,
@@ -590,5 +641,106 @@ fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
         fr.aug
     } else {
         start
+    }
+}
+
+/// How far session time follows the inputs: the adjusted R^2 of the visits' mid times
+/// (about each session's mean) on additive levels of z_m and f. Near 1 in a sweep, near 0 in
+/// a random order or where points are revisited at other times. 0 where there are too few
+/// visits to tell.
+fn time_tied_to_inputs(ds: &Dataset) -> f64 {
+    let (cell, nz, nf) = noise::cells(ds);
+    let ns = ds.sessions.len().max(1);
+    let p = ns + nz.saturating_sub(1) + nf.saturating_sub(1);
+    let n = ds.visits.len();
+    if n < p + 5 {
+        return 0.0;
+    }
+    let mut x = DMatrix::zeros(n, p);
+    let mut y = DVector::zeros(n);
+    for (i, v) in ds.visits.iter().enumerate() {
+        let (zi, fi) = cell[i];
+        x[(i, v.sess.min(ns - 1))] = 1.0;
+        if zi > 0 {
+            x[(i, ns + zi - 1)] = 1.0;
+        }
+        if fi > 0 {
+            x[(i, ns + nz - 1 + fi - 1)] = 1.0;
+        }
+        y[i] = v.t_mid;
+    }
+    // Total sum of squares about each session's mean.
+    let mut sst = 0.0;
+    for s in 0..ns {
+        let ts: Vec<f64> = ds.visits.iter().filter(|v| v.sess == s).map(|v| v.t_mid).collect();
+        let m = ts.iter().sum::<f64>() / ts.len().max(1) as f64;
+        sst += ts.iter().map(|t| (t - m).powi(2)).sum::<f64>();
+    }
+    let Ok(beta) = x.clone().svd(true, true).solve(&y, 1e-10) else {
+        return 0.0;
+    };
+    let sse = (&y - &x * beta).norm_squared();
+    if sst <= 0.0 {
+        return 0.0;
+    }
+    let dof_res = (n - p) as f64;
+    let dof_tot = (n - ns) as f64;
+    (1.0 - (sse / dof_res) / (sst / dof_tot)).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use magswarm_identify::data::{Row, Session};
+    use magswarm_model::Model;
+
+    /// A log visiting `points` in the given order, 5 rows per visit 1 s apart.
+    fn log(points: &[(f64, f64)]) -> Dataset {
+        let mut rows = Vec::new();
+        let mut t = 0.0;
+        for (v, &(z, f)) in points.iter().enumerate() {
+            for k in 0..5 {
+                t += 1.0;
+                rows.push(Row {
+                    t,
+                    z_mm: z,
+                    f_hz: f,
+                    r: Some([10.0, 12.0]),
+                    visit: v,
+                    since: 1.0 + k as f64,
+                    settled: k >= 2,
+                    line: rows.len() + 2,
+                });
+            }
+        }
+        let s = Session {
+            name: "test".into(),
+            rows,
+        };
+        Dataset::build(&[s], &Model::paper()).expect("a usable log")
+    }
+
+    fn grid() -> Vec<(f64, f64)> {
+        let mut g = Vec::new();
+        for z in [3.5, 8.5, 13.5, 18.5, 23.5] {
+            for f in 1..=10 {
+                g.push((z, f as f64));
+            }
+        }
+        g
+    }
+
+    #[test]
+    fn a_sweep_ties_session_time_to_the_inputs_and_a_random_order_does_not() {
+        let sweep = time_tied_to_inputs(&log(&grid()));
+        assert!(sweep > 0.95, "sweep: {sweep}");
+        let mut shuffled = grid();
+        shuffled.shuffle(&mut rand::rngs::StdRng::seed_from_u64(7));
+        let random = time_tied_to_inputs(&log(&shuffled));
+        assert!(random < 0.5, "random order: {random}");
+        // The grid swept twice: the second visit of each point comes half a session later.
+        let twice: Vec<_> = grid().into_iter().chain(grid()).collect();
+        let two = time_tied_to_inputs(&log(&twice));
+        assert!(two < TIME_TIED_TO_INPUTS, "swept twice: {two}");
     }
 }

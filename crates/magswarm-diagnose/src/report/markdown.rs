@@ -221,10 +221,15 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 e.p,
                 e.variant,
                 form,
-                if e.implausible.is_empty() {
+                if e.implausible.is_empty() && e.notes.is_empty() {
                     "-".to_string()
                 } else {
-                    e.implausible.join("; ")
+                    e.implausible
+                        .iter()
+                        .chain(&e.notes)
+                        .cloned()
+                        .collect::<Vec<_>>()
+                        .join("; ")
                 },
                 100.0 * e.signature.0,
                 if e.closes_gap {

@@ -114,6 +114,7 @@ pub fn json(d: &Diagnosis) -> Value {
                 "p_value": e.p,
                 "plausible": e.implausible.is_empty(),
                 "implausible": e.implausible,
+                "notes": e.notes,
                 "signature_share": e.signature.0,
                 "signature_region": e.signature.1,
                 "closes_gap": e.closes_gap,
