@@ -401,8 +401,7 @@ pub fn attribute(
         // it); otherwise the next passing candidate is named (or none), and the table says why.
         let mut confounded: Option<usize> = None;
         if let Some(b) = best.filter(|&b| {
-            scored[b].name == Cand::Effect(EffectKind::ParticleDrift)
-                && tied >= TIME_TIED_TO_INPUTS
+            scored[b].name == Cand::Effect(EffectKind::ParticleDrift) && tied >= TIME_TIED_TO_INPUTS
         }) {
             let q = quantile(&scored[b].null, 1.0 - st.alpha).max(MIN_GAIN);
             let (sc, sp) = detect::surface(ds, &lin.rc);
@@ -672,7 +671,12 @@ fn time_tied_to_inputs(ds: &Dataset) -> f64 {
     // Total sum of squares about each session's mean.
     let mut sst = 0.0;
     for s in 0..ns {
-        let ts: Vec<f64> = ds.visits.iter().filter(|v| v.sess == s).map(|v| v.t_mid).collect();
+        let ts: Vec<f64> = ds
+            .visits
+            .iter()
+            .filter(|v| v.sess == s)
+            .map(|v| v.t_mid)
+            .collect();
         let m = ts.iter().sum::<f64>() / ts.len().max(1) as f64;
         sst += ts.iter().map(|t| (t - m).powi(2)).sum::<f64>();
     }

@@ -237,7 +237,7 @@ fn effect_figures(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> {
                 })
                 .collect()
         };
-        let panels: Vec<Panel> = (0..2)
+        let mut panels: Vec<Panel> = (0..2)
             .map(|a| {
                 let mut s = vec![Series::points(
                     "baseline residual",
@@ -280,6 +280,19 @@ fn effect_figures(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> {
                 }
             })
             .collect();
+        // A learned shape that does not act in mm (a relative change, a rate deficit, the
+        // share of a step still missing, or mm scaled by the field): its heights in their own
+        // unit with a 2-SD band, in a panel of its own, over the range of the data.
+        if let attribute::Form::Learned(sh) = &e.form {
+            if let Some(p) = shape_panel(
+                sh,
+                (0..ds.rows.len())
+                    .map(x_of)
+                    .fold(f64::NEG_INFINITY, f64::max),
+            ) {
+                panels.push(p);
+            }
+        }
         let file = format!("effect_{}.png", e.name);
         let form = match &e.form {
             attribute::Form::Learned(sh) => format!("learned, {}", sh.family.mode.key()),
@@ -301,4 +314,52 @@ fn effect_figures(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> {
         ));
     }
     Ok(out)
+}
+
+/// The panel of a learned shape's heights in their own unit with a 2-SD band (None for a
+/// shape in plain mm, drawn over the radii already).
+fn shape_panel(sh: &shapes::Shape, x_max: f64) -> Option<Panel> {
+    use shapes::Mode;
+    let f = &sh.family;
+    let (label, scale) = match f.mode {
+        Mode::Add if f.amp == 0.0 => return None,
+        Mode::Add => ("learned shape [mm at B_mid]", 1.0),
+        Mode::Relative | Mode::Common => ("learned change [%]", 100.0),
+        Mode::Aspect => ("learned aspect change [%]", 100.0),
+        Mode::Rate => ("rate deficit [Hz]", 1.0),
+        Mode::StepFraction => ("step still missing [%]", 100.0),
+    };
+    // One value for both radii where the mode shares it.
+    let shared = matches!(f.mode, Mode::Rate | Mode::Aspect | Mode::Common);
+    let radii: Vec<usize> = (0..2)
+        .filter(|&a| f.axes[a] && !(shared && a == 1))
+        .collect();
+    let mut series = Vec::new();
+    for a in radii {
+        let name = if shared {
+            "learned shape".to_string()
+        } else {
+            format!("learned shape, r{}", a + 1)
+        };
+        let line = |k: f64| -> Vec<(f64, f64)> {
+            f.knots
+                .iter()
+                .enumerate()
+                .filter(|(j, &x)| x <= x_max || *j == 0)
+                .map(|(j, &x)| (x, scale * (sh.values[a][j] + k * sh.sd[a][j])))
+                .collect()
+        };
+        let color = if a == 0 {
+            plot::RGBColor(0, 114, 178)
+        } else {
+            plot::RGBColor(213, 94, 0)
+        };
+        series.push(Series::line(&name, line(0.0)).with_color(color));
+        series.push(Series::dashed("+/- 2 SD", line(2.0)).with_color(color));
+        series.push(Series::dashed("", line(-2.0)).with_color(color));
+    }
+    (!series.is_empty()).then(|| Panel {
+        y_label: label.to_string(),
+        series,
+    })
 }
