@@ -35,7 +35,7 @@ pub fn params(kind: EffectKind, ctx: &Ctx) -> Vec<FitParam> {
 /// The model parameters of an effect switched on in `m` (registry name without the effect
 /// prefix, unit, value): what `augmented.json` holds and the report shows.
 pub fn model_params(kind: EffectKind, m: &Model) -> Vec<(&'static str, &'static str, f64)> {
-    effects::params_of(kind)
+    registry::params_of(kind)
         .map(|p| {
             let field = p.name.split_once('.').map(|x| x.1).unwrap_or(p.name);
             (field, display_unit(p), (p.get)(m))

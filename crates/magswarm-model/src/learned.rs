@@ -273,7 +273,7 @@ mod tests {
     fn bad_terms_are_refused_naming_the_field() {
         let mut t = term();
         t.knots[2] = 18.5;
-        let e = t.validate(&crate::effects::NAMES).unwrap_err();
+        let e = t.validate(&crate::effect_kind::NAMES).unwrap_err();
         assert_eq!(e.field, "knots");
         assert!(
             e.message.contains("not strictly increasing at index 2"),
@@ -281,27 +281,30 @@ mod tests {
         );
         let mut t = term();
         t.r2.pop();
-        assert_eq!(t.validate(&crate::effects::NAMES).unwrap_err().field, "r2");
+        assert_eq!(
+            t.validate(&crate::effect_kind::NAMES).unwrap_err().field,
+            "r2"
+        );
         let mut t = term();
         t.mode = LearnedMode::StepFraction;
         assert_eq!(
-            t.validate(&crate::effects::NAMES).unwrap_err().field,
+            t.validate(&crate::effect_kind::NAMES).unwrap_err().field,
             "mode"
         );
         let mut t = term();
         t.effect = "magic".into();
         assert!(t
-            .validate(&crate::effects::NAMES)
+            .validate(&crate::effect_kind::NAMES)
             .unwrap_err()
             .message
             .contains("phase_lag"));
         let mut t = term();
         t.sd_r1 = Some(vec![0.1, -0.1, 0.1]);
         assert_eq!(
-            t.validate(&crate::effects::NAMES).unwrap_err().field,
+            t.validate(&crate::effect_kind::NAMES).unwrap_err().field,
             "sd_r1"
         );
-        assert!(term().validate(&crate::effects::NAMES).is_ok());
+        assert!(term().validate(&crate::effect_kind::NAMES).is_ok());
     }
 
     #[test]

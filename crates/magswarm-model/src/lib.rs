@@ -15,9 +15,11 @@
 //! - [`effects`]: the unmodelled effects as model terms (phase lag, cohesion loss, formation
 //!   lag, particle drift, centroid offset, camera bias), each nesting the seed's model;
 //! - [`model_file`]: the versioned JSON model file (`magswarm-model/2`, reads `/1`);
+//! - [`effect_kind`]: the list of effects (each effect's name, written once) and
+//!   [`effects::EffectKind`], the handle reports and options name an effect by;
 //! - [`registry`]: one table of every numeric parameter (name, unit, bounds, accessors),
 //!   which validation, the FMU's parameters and `identify` iterate over (effect parameters
-//!   included);
+//!   included), of rows whose types are [`param_row`]'s;
 //! - [`reconstruction`]: the constants Table I leaves out, and why they have their values.
 //!
 //! Units: inputs are SI (z_m in m, omega_m in rad/s); radii are in mm (Table I's unit for
@@ -28,6 +30,7 @@
 
 mod conststr;
 pub mod dynamics;
+pub mod effect_kind;
 pub mod effects;
 pub mod envelope;
 pub mod fastpow;
@@ -36,6 +39,7 @@ pub mod integrate;
 pub mod learned;
 pub mod maptable;
 pub mod model_file;
+pub mod param_row;
 pub mod params;
 pub mod plant;
 pub mod reconstruction;

@@ -171,7 +171,7 @@ impl Model {
             c.fail(path, err.to_string());
         }
         for (i, t) in self.effects.learned.iter().enumerate() {
-            if let Err(e) = t.validate(&crate::effects::NAMES) {
+            if let Err(e) = t.validate(&crate::effect_kind::NAMES) {
                 c.fail(&format!("effects.learned[{i}].{}", e.field), e.message);
             }
         }

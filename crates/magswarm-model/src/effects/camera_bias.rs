@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{DataContext, Effect, EffectRow, FitParam, LearnedAxis, Stage};
-use crate::registry::{fit, range, Transform::Log, Transform::Sin};
+use crate::param_row::{fit, range, Transform::Log, Transform::Sin};
 use crate::Model;
 
 /// Measurement bias of the camera: `r1' = scale r1 + offset`,

@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{DataContext, Effect, EffectRow, FitParam, LearnedAxis, Stage};
 use crate::field::MagnetConfig;
-use crate::registry::{fit, range, Transform::Sin};
+use crate::param_row::{fit, range, Transform::Sin};
 use crate::Model;
 
 /// The swarm's centroid further from the rotation axis than the model's geometry says.

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{DataAxis, DataContext, Effect, EffectRow, FitParam, LearnedAxis, Stage};
-use crate::registry::{fit, range, Transform::Sin};
+use crate::param_row::{fit, range, Transform::Sin};
 use crate::Model;
 
 /// Confinement that fades past an onset distance (weakening cohesion toward z_off).

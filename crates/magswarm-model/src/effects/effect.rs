@@ -6,7 +6,7 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 use super::{EffectKind, Effects, LearnedAxis};
-use crate::registry::Param;
+use crate::param_row::Param;
 use crate::Model;
 
 /// Where in the model an effect acts (which outputs and which fits can see it).
@@ -63,7 +63,7 @@ impl FitParam {
     pub fn of_row(row: &EffectRow) -> FitParam {
         let p = &row.param;
         let (lo, hi, log) = match p.fit {
-            Some(f) => (f.lo, f.hi, f.transform == crate::registry::Transform::Log),
+            Some(f) => (f.lo, f.hi, f.transform == crate::param_row::Transform::Log),
             // Rows of effects are fittable (tested); a row without fit bounds is held.
             None => (0.0, 0.0, false),
         };
@@ -130,8 +130,8 @@ pub struct EffectRow {
     pub param: Param,
 }
 
-/// Where an effect lives in [`Effects`]: implemented for every effect by the list at the
-/// bottom of this file (the one place an effect's name is written).
+/// Where an effect lives in [`Effects`]: implemented for every effect from the list of
+/// effects ([`crate::effect_kind`], the one place an effect's name is written).
 pub trait Slot: Sized {
     /// Which effect.
     const KIND: EffectKind;

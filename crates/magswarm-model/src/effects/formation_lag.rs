@@ -4,7 +4,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{DataContext, Effect, EffectRow, FitParam, LearnedAxis, Stage};
-use crate::registry::{fit, range, Transform::Log, Transform::Sin};
+use crate::param_row::{fit, range, Transform::Log, Transform::Sin};
 use crate::Model;
 
 /// A slow formation mode in parallel with ODE (4).

@@ -7,14 +7,15 @@
 //! a fit (what it frees, neutral fit values, start grid, how fitted values are written back,
 //! when a fit is implausible). Its physics (the terms it adds to (4)-(7)) are the type's own
 //! methods, called where the model evaluates that stage. The effect's name is written once,
-//! in the list at the bottom of this file ([`EffectKind`], the fields of [`Effects`]): that
-//! is the model file's boundary (the `effects` section's keys, the registry's names
-//! `<effect>.<field>`); code everywhere else names an effect by its type or [`EffectKind`],
-//! so a misspelt effect does not compile.
+//! in the list of effects ([`crate::effect_kind`], which makes [`EffectKind`] and, here, the
+//! fields of [`Effects`]): that is the model file's boundary (the `effects` section's keys,
+//! the registry's names `<effect>.<field>`); code everywhere else names an effect by its type
+//! or [`EffectKind`], so a misspelt effect does not compile.
 //!
 //! **Adding an effect**: a file here with its type and its `impl Effect`, one line in the list
-//! below, and its physics hooked into the stage it acts on (`steady`, `dynamics`, `plant` or
-//! [`Effects::observation`]). Its parameter rows take the next free value-reference slots.
+//! of effects ([`crate::effect_kind`]), and its physics hooked into the stage it acts on
+//! (`steady`, `dynamics`, `plant` or [`Effects::observation`]). Its parameter rows take the
+//! next free value-reference slots.
 //!
 //! An effect is switched on by its presence in the model file's `effects` section
 //! (`magswarm-model/2`); absent means off. Every effect has neutral parameter values with
@@ -40,14 +41,16 @@
 //!
 //! Parameter metadata (units, physical bounds, fit bounds) are rows of the parameter registry
 //! ([`crate::registry`], group `Effect(kind)`), so that model-file validation, the FMU's
-//! parameter variables and `identify` see them; [`params_of`] and [`neutral`] read them.
-
-use std::fmt;
+//! parameter variables and `identify` see them; [`crate::registry::params_of`] and [`neutral`]
+//! read them. The rows' types are [`crate::param_row`]'s (the registry only places the rows
+//! the effects declare, so the effects need nothing of it).
 
 use serde::{Deserialize, Serialize};
 
+use crate::effect_kind::for_each_effect;
+pub use crate::effect_kind::{EffectKind, UnknownEffect, NAMES};
 pub use crate::learned::{LearnedAxis, LearnedMode, LearnedTerm};
-use crate::registry::{Group, Param};
+use crate::param_row::Param;
 use crate::steady::SteadyPoint;
 use crate::Model;
 
@@ -59,7 +62,7 @@ macro_rules! effect_row {
         $crate::effects::EffectRow {
             slot: $slot,
             field: stringify!($field),
-            param: $crate::registry::Param {
+            param: $crate::param_row::Param {
                 name: $crate::conststr::concat_str!(
                     <$ty as $crate::effects::Slot>::KIND.name(),
                     ".",
@@ -71,7 +74,7 @@ macro_rules! effect_row {
                     ".",
                     stringify!($field)
                 ),
-                group: $crate::registry::Group::Effect(<$ty as $crate::effects::Slot>::KIND),
+                group: $crate::param_row::Group::Effect(<$ty as $crate::effects::Slot>::KIND),
                 unit: $unit,
                 description: $crate::conststr::concat_str!(
                     <$ty as $crate::effects::Slot>::KIND.name(),
@@ -114,42 +117,12 @@ pub use phase_lag::PhaseLag;
 
 pub use effect::{DataAxis, DataContext, Effect, EffectRow, FitParam, Slot, Stage};
 
-/// A name that is not an effect's.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("unknown effect {name:?} (effects: {known})")]
-pub struct UnknownEffect {
-    /// The name given.
-    pub name: String,
-    /// The names of the effects, comma-separated.
-    pub known: String,
-}
-
-/// The list of effects: the one place where each effect's name is written. It generates
-/// [`EffectKind`], the fields of [`Effects`] (the model file's `effects` section), [`NAMES`]
-/// and each effect's [`Slot`].
+/// What the list of effects ([`crate::effect_kind`]) makes of each effect type here: the
+/// effect-type side of [`EffectKind`] (stage, axis, rows, library form), the fields of
+/// [`Effects`] (the model file's `effects` section), each effect's [`Slot`] and `ROWS`.
 macro_rules! effect_list {
     ($($(#[$doc:meta])* $name:ident : $ty:ident),+ $(,)?) => {
-        /// Which effect: the run-time handle of an effect type (a report, a CLI option or a
-        /// learned term names an effect by it; its name is the model file's).
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-        pub enum EffectKind {
-            $($(#[$doc])* $ty,)+
-        }
-
-        /// Names of the effects, as in the model file and docs/effects.md, in list order.
-        pub const NAMES: [&str; [$(stringify!($name)),+].len()] = [$(stringify!($name)),+];
-
         impl EffectKind {
-            /// Every effect, in list order (the model file's and the reports' order).
-            pub const ALL: [EffectKind; NAMES.len()] = [$(EffectKind::$ty),+];
-
-            /// The effect's name in the model file (`phase_lag`, ...).
-            pub const fn name(self) -> &'static str {
-                match self {
-                    $(EffectKind::$ty => stringify!($name),)+
-                }
-            }
-
             /// Where in the model it acts.
             pub fn stage(self) -> Stage {
                 match self {
@@ -274,56 +247,7 @@ macro_rules! effect_list {
     };
 }
 
-effect_list! {
-    /// Step-out of the swarm rotation (rotation reversal / phase lag near f_off).
-    phase_lag: PhaseLag,
-    /// Weakening confinement toward z_off.
-    cohesion_loss: CohesionLoss,
-    /// Slow or oscillating formation after an input change.
-    formation_lag: FormationLag,
-    /// Slow change of the swarm over a session.
-    particle_drift: ParticleDrift,
-    /// Swarm off the field axis.
-    centroid_offset: CentroidOffset,
-    /// Scale, offset or tilt of the measurement.
-    camera_bias: CameraBias,
-}
-
-impl EffectKind {
-    /// The effect of a name (the model file's), if any.
-    pub fn from_name(name: &str) -> Option<EffectKind> {
-        EffectKind::ALL.into_iter().find(|k| k.name() == name)
-    }
-}
-
-impl fmt::Display for EffectKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for EffectKind {
-    type Err = UnknownEffect;
-    fn from_str(s: &str) -> Result<EffectKind, UnknownEffect> {
-        EffectKind::from_name(s).ok_or_else(|| UnknownEffect {
-            name: s.to_string(),
-            known: NAMES.join(", "),
-        })
-    }
-}
-
-impl Serialize for EffectKind {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
-    }
-}
-
-impl<'de> Deserialize<'de> for EffectKind {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<EffectKind, D::Error> {
-        let s = String::deserialize(d)?;
-        s.parse().map_err(serde::de::Error::custom)
-    }
-}
+for_each_effect!(effect_list);
 
 /// Number of effect rows in the registry.
 pub(crate) const fn row_count() -> usize {
@@ -459,14 +383,6 @@ pub fn observed_steady(model: &Model, z_m: f64, omega: f64, t: f64) -> SteadyPoi
     model.effects.observe_steady(&sp, t)
 }
 
-/// The registry rows of one effect's parameters (name `effect.field`, unit, physical and fit
-/// bounds, accessors), in registry order: see [`crate::registry`].
-pub fn params_of(kind: EffectKind) -> impl Iterator<Item = &'static Param> {
-    crate::registry::PARAMS
-        .iter()
-        .filter(move |p| p.group == Group::Effect(kind))
-}
-
 /// The neutral value of an effect parameter (with it the effect is the seed's model).
 pub fn neutral(p: &Param) -> f64 {
     let mut m = Model::paper();
@@ -477,43 +393,6 @@ pub fn neutral(p: &Param) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::registry::Physical;
-
-    #[test]
-    fn registry_covers_every_effect_and_neutral_is_inside_bounds() {
-        for k in EffectKind::ALL {
-            assert!(params_of(k).count() > 0, "{k} has no parameters");
-            assert_eq!(params_of(k).count(), k.rows().len(), "{k}");
-            assert_eq!(k.name().parse::<EffectKind>(), Ok(k));
-        }
-        for p in crate::registry::PARAMS {
-            let Group::Effect(e) = p.group else { continue };
-            assert_eq!(p.path, format!("effects.{}", p.name));
-            assert!(p.name.starts_with(&format!("{e}.")), "{}", p.name);
-            assert!(p.description.starts_with(&format!("{e}: ")), "{}", p.name);
-            let v = neutral(p);
-            let Physical::Range(lo, hi) = p.physical else {
-                panic!("{}: effect bounds are ranges", p.name)
-            };
-            assert!(lo <= v && v <= hi, "{}", p.name);
-            let f = p.fit.expect("effect parameters are fittable");
-            assert!(lo <= f.lo && f.hi <= hi);
-            let mut m = Model::paper();
-            assert!(!m.effects.is_on(e));
-            (p.set)(&mut m, f.hi);
-            assert!(m.effects.is_on(e));
-            assert_eq!((p.get)(&m), f.hi);
-        }
-    }
-
-    #[test]
-    fn unknown_names_are_refused_naming_the_known_ones() {
-        let e = "phase_lags".parse::<EffectKind>().unwrap_err();
-        assert!(e.to_string().contains("phase_lag, cohesion_loss"), "{e}");
-        let k: EffectKind = serde_json::from_str("\"camera_bias\"").unwrap();
-        assert_eq!(k, EffectKind::CameraBias);
-        assert_eq!(serde_json::to_string(&k).unwrap(), "\"camera_bias\"");
-    }
 
     #[test]
     fn neutral_fit_values_give_the_neutral_effect_output() {

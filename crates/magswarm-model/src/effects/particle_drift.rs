@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{DataContext, Effect, EffectRow, FitParam, LearnedAxis, Stage};
-use crate::registry::{fit, range, Transform::Sin};
+use crate::param_row::{fit, range, Transform::Sin};
 use crate::Model;
 
 /// Slow change of the swarm over session time (particle loss or clumping).

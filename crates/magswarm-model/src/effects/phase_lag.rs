@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{DataAxis, DataContext, Effect, EffectRow, FitParam, LearnedAxis, Stage};
 use crate::field::FieldAtSwarm;
-use crate::registry::{fit, range, Transform::Log, Transform::Sin};
+use crate::param_row::{fit, range, Transform::Log, Transform::Sin};
 use crate::Model;
 
 /// Step-out of the swarm's rotation above a field-dependent frequency.
