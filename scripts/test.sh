@@ -37,6 +37,15 @@ step() {
     printf '=== [test] %s: ok (%ds)\n' "$CURRENT" $((SECONDS - t))
 }
 
+# A release build of the workspace, its tests and examples take about 6 GB under target/; a
+# full disk shows up much later as an obscure compiler error ("No space left on device").
+need_gb=6
+free_gb=$(df -Pk "$ROOT" | awk 'NR == 2 { printf "%d", $4 / 1048576 }')
+if [ "${free_gb:-0}" -lt "$need_gb" ]; then
+    printf '\n=== [test] WARNING: %s GB free on the filesystem of %s; the build and tests need about %s GB (cargo clean in other checkouts frees space)\n' \
+        "$free_gb" "$ROOT" "$need_gb" >&2
+fi
+
 step "setup (scripts/setup.sh)" bash "$ROOT/scripts/setup.sh"
 
 step "cargo fmt --all -- --check" cargo fmt --all -- --check
