@@ -274,6 +274,11 @@ struct State {
     last: StepInfo,
     /// Gains in force before a [`Controller::set_gains`] not yet absorbed.
     gains_before: Option<Gains>,
+    /// The decoupler at the inputs (bits) it was computed for: the inputs change on a
+    /// fraction of the samples (during ramps and corrections), and the decoupler depends on
+    /// them alone. A cache, not state: a snapshot leaves it out and a restored controller
+    /// recomputes the same matrix.
+    decoupler: Option<([u64; 2], mat2::M2)>,
 }
 
 /// The controller's mutable state as plain data: what an FMU state or a checkpoint of a
@@ -328,6 +333,7 @@ impl Controller {
                 status: None,
                 last: StepInfo::default(),
                 gains_before: None,
+                decoupler: None,
             },
         })
     }
@@ -414,6 +420,7 @@ impl Controller {
             status: s.status,
             last: s.last,
             gains_before: s.gains_before,
+            decoupler: None,
         };
     }
 
@@ -472,8 +479,22 @@ impl Controller {
         (self.st.u[0], self.st.u[1])
     }
 
-    /// Damped inverse of the normalised Jacobian at inputs u.
-    fn decoupler(&self, u: [f64; 2]) -> mat2::M2 {
+    /// Damped inverse of the normalised Jacobian at inputs u, from the cache when u is the
+    /// input it was last computed for (bit for bit).
+    fn decoupler(&mut self, u: [f64; 2]) -> mat2::M2 {
+        let key = [u[0].to_bits(), u[1].to_bits()];
+        match self.st.decoupler {
+            Some((k, m)) if k == key => m,
+            _ => {
+                let m = self.decoupler_at(u);
+                self.st.decoupler = Some((key, m));
+                m
+            }
+        }
+    }
+
+    /// Damped inverse of the normalised Jacobian at inputs u, computed.
+    fn decoupler_at(&self, u: [f64; 2]) -> mat2::M2 {
         let sp = steady::evaluate(&self.model, u[0], u[1]);
         let jx = self.scale.jac_x(&sp.jac);
         let lambda = self.cfg.decoupler_damping * mat2::singular_values(&jx)[0];
