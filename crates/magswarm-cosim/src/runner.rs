@@ -145,6 +145,10 @@ pub struct CoSimulation {
     in_vr: [u32; 2],
     out_vr: Vec<u32>,
     inputs: [f64; 2],
+    /// The input values (bits) the instance is known to hold, when only this runner set them
+    /// since: an unchanged command is not set again (FMI inputs keep their values until set).
+    /// Cleared whenever the instance is handed out ([`CoSimulation::slave`]).
+    sent: Option<[u64; 2]>,
     warnings: u64,
     buf: Vec<f64>,
     /// The importer's error behind the last [`PlantError`], so that [`CoSimulation::run`]
@@ -200,6 +204,7 @@ impl CoSimulation {
             in_vr,
             out_vr,
             inputs: cfg.initial_inputs,
+            sent: Some(cfg.initial_inputs.map(f64::to_bits)),
             warnings,
             buf: vec![0.0; n],
             last_error: None,
@@ -228,6 +233,8 @@ impl CoSimulation {
 
     /// The instance, for anything else (FMU state, directional derivatives, the log).
     pub fn slave(&mut self) -> &mut FmuSlave {
+        // The caller may set the inputs (or reset, or restore a state) behind our back.
+        self.sent = None;
         &mut self.slave
     }
 
@@ -259,7 +266,15 @@ impl CoSimulation {
     /// Set the inputs and advance `dt` seconds (the communication step of [`SwarmPlant::step`]).
     fn advance_by(&mut self, u: Inputs, dt: f64) -> Result<Status> {
         let u = u.to_array();
-        let a = self.slave.set_real(&self.in_vr, &u)?;
+        let bits = u.map(f64::to_bits);
+        let a = if self.sent == Some(bits) {
+            Status::Ok
+        } else {
+            self.sent = None;
+            let a = self.slave.set_real(&self.in_vr, &u)?;
+            self.sent = Some(bits);
+            a
+        };
         self.inputs = u;
         let b = self.slave.do_step(self.t, dt)?;
         for s in [a, b] {
