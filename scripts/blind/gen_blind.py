@@ -154,10 +154,12 @@ def tau_of(z_mm, lab):
 # Protocols: a schedule of setpoints (holds) and the times of the rows recorded in each
 # --------------------------------------------------------------------------------------------
 
-def protocol_rows(kind, rng, lab, short_wait=False, sweep_ok=True):
+def protocol_rows(kind, rng, lab, short_wait=False, sweep_ok=True, order="mixed"):
     """Returns holds: list of dict(z, f, t0 (the change), t_rows (array)), and the session
     length. Grid visits in a random order, or (30 %, where sweep_ok) as a sweep: z outer, f
-    inner. A sweep confounds session time with z_m, so drift scenarios never use it."""
+    inner. A sweep confounds session time with z_m, so drift scenarios never use it, unless
+    `order` is "sweep" (every grid pass a sweep, drifts included: a stress test of how a
+    diagnosis tells a drift from the inputs) or "random" (never a sweep)."""
     holds = []
     t = 0.0
     if kind in ("single", "twice"):
@@ -166,6 +168,10 @@ def protocol_rows(kind, rng, lab, short_wait=False, sweep_ok=True):
         order = []
         for _ in range(nvis):
             sweep = rng.uniform() >= 0.7
+            if order == "sweep":
+                sweep, sweep_ok = True, True
+            elif order == "random":
+                sweep = False
             idx = np.arange(len(pts)) if (sweep and sweep_ok) else rng.permutation(len(pts))
             order += [pts[i] for i in idx]
         wait = rng.uniform(1.0, 3.0) if short_wait else rng.uniform(8.0, 20.0)
@@ -615,7 +621,7 @@ CATALOGUE = [
 ]
 
 
-def build_scenario(kind, names, protocol, srange, fixed, seed, k, out):
+def build_scenario(kind, names, protocol, srange, fixed, seed, k, out, order="mixed"):
     rng = np.random.default_rng([seed, k, 7919])
     lab = draw_lab(rng)
     if protocol is None:
@@ -626,7 +632,7 @@ def build_scenario(kind, names, protocol, srange, fixed, seed, k, out):
     # rows soon after each change only where the transient is the point (formation lag)
     short = protocol != "steps" and any(n == "formation_lag" for n in names)
     holds, T = protocol_rows(protocol, rng, lab, short_wait=short,
-                             sweep_ok="particle_drift" not in names)
+                             sweep_ok="particle_drift" not in names, order=order)
     wh = withheld_holds(protocol, rng, lab, T)
     effects, descs, variants = [], [], []
     for j, n in enumerate(names):
@@ -690,21 +696,22 @@ def build_scenario(kind, names, protocol, srange, fixed, seed, k, out):
     )
 
 
-def generate(seed: int, out: pathlib.Path, only=None, verbose=False) -> list[dict]:
+def generate(seed: int, out: pathlib.Path, only=None, verbose=False, order="mixed") -> list[dict]:
     """Writes the logs of the catalogue's kinds (all, or those in `only`) for `seed` into `out`
-    with their truth.json; returns the truth entries."""
+    with their truth.json; returns the truth entries. `order`: "mixed" (the default: 30 % of
+    grid passes swept, drifts never), "sweep" (every grid pass swept) or "random"."""
     out.mkdir(parents=True, exist_ok=True)
     truths = []
     for k, (kind, names, protocol, srange, fixed) in enumerate(CATALOGUE):
         if only and kind not in only:
             continue
-        truths.append(build_scenario(kind, names, protocol, srange, fixed, seed, k, out))
+        truths.append(build_scenario(kind, names, protocol, srange, fixed, seed, k, out, order))
         if verbose:
             print(f"{truths[-1]['name']}: {truths[-1]['protocol']}, {truths[-1]['rows']} rows, "
                   f"strength {truths[-1]['strength']}, {'; '.join(truths[-1]['shapes']) or 'no effect'}",
                   flush=True)
     with open(out / "truth.json", "w") as fh:
-        json.dump(dict(seed=seed, scenarios=truths), fh, indent=1)
+        json.dump(dict(seed=seed, order=order, scenarios=truths), fh, indent=1)
     return truths
 
 
@@ -714,8 +721,13 @@ def main(argv=None):
     ap.add_argument("--out", required=True, type=pathlib.Path)
     ap.add_argument("--only", default=None, help="comma-separated kinds (default: all); kinds: "
                     + ", ".join(c[0] for c in CATALOGUE))
+    ap.add_argument("--order", choices=["mixed", "sweep", "random"], default="mixed",
+                    help="visit order of the grid protocols: mixed (30 %% swept, drift scenarios "
+                    "never), sweep (z_m outer, f inner, every pass, drifts included: session time "
+                    "then follows the inputs) or random")
     args = ap.parse_args(argv)
-    generate(args.seed, args.out, set(args.only.split(",")) if args.only else None, verbose=True)
+    generate(args.seed, args.out, set(args.only.split(",")) if args.only else None, verbose=True,
+             order=args.order)
 
 
 if __name__ == "__main__":
