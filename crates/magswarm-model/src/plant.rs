@@ -222,7 +222,7 @@ impl Plant {
         } else if let Some(t) = candidate.filter(|t| fits(t)) {
             Some(t.clone())
         } else {
-            MapTable::new(&self.model).map(Arc::new)
+            MapTable::shared(&self.model)
         };
         self.terms = InputTerms::with_map(
             &self.model,

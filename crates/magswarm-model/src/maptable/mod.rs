@@ -51,7 +51,13 @@
 
 use crate::steady::{self, SteadyPoint};
 use crate::Model;
-use std::sync::OnceLock;
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
+
+/// The tables shared by the plants of this process, most recently used last (see
+/// [`MapTable::shared`]).
+static SHARED: Mutex<Vec<Arc<MapTable>>> = Mutex::new(Vec::new());
+/// How many models' tables the process keeps (a fully built table is about half a MB).
+const SHARED_MODELS: usize = 8;
 
 /// Cells per binade of the depth: 2^10 (its fourth derivatives reach 1e10 /m^4).
 const DEPTH_BITS: u32 = 10;
@@ -388,6 +394,34 @@ impl MapTable {
             depth,
             freq,
         })
+    }
+
+    /// The process's table for `model`'s map, shared by every plant of the same map
+    /// parameters ([`MapTable::answers_for`]): a cell built by one instance (of an FMU, a
+    /// sweep, a lab) is built for all. Sound because a cell is a pure function of those
+    /// parameters and its index, built once behind its `OnceLock` (threads that want it at
+    /// the same time wait for the one building it): who built it changes no value, so
+    /// results and saved states replay bit for bit. The last [`SHARED_MODELS`] models'
+    /// tables are kept for the life of the process. `None` as for [`MapTable::new`].
+    pub fn shared(model: &Model) -> Option<Arc<MapTable>> {
+        if !tabulable(model) {
+            return None;
+        }
+        let key = Key::of(model);
+        // Only vector operations run under the lock (no panic can poison it in practice;
+        // if one did, the list is still consistent).
+        let mut tables = SHARED.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(i) = tables.iter().position(|t| t.key == key) {
+            let t = tables.remove(i);
+            tables.push(t.clone());
+            return Some(t);
+        }
+        let t = Arc::new(MapTable::new(model)?);
+        if tables.len() >= SHARED_MODELS {
+            tables.remove(0);
+        }
+        tables.push(t.clone());
+        Some(t)
     }
 
     /// The depth cell holding d (built if needed), if interpolated.
