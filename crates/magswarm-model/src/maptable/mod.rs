@@ -160,7 +160,8 @@ struct CellBound<const K: usize> {
 
 /// K functions of one positive variable over a range of cells, each cell built (nodes,
 /// coefficients, bound) the first time it is needed: a sweep pays for the cells it visits
-/// (about 5 us each in a release build), not for the whole range.
+/// (about 5 us each in a release build), not for the whole range, and once per process
+/// when its plants share the table ([`MapTable::shared`]).
 #[derive(Debug, Clone)]
 struct Axis<const K: usize> {
     /// `x.to_bits() >> shift` of the first cell.
@@ -373,7 +374,8 @@ impl MapTable {
     /// The tables of `model`'s map over its envelope widened by half its span in z_m and from
     /// f_min / 2 to 2 f_max; `None` when an effect acts on the map ([`tabulable`]) or the
     /// range is degenerate. Cells are built on first use (about 5 us each in a release
-    /// build), so this is quick and a sweep pays for the cells it visits.
+    /// build), so this is quick and a sweep pays for the cells it visits. A table of its
+    /// own: plants take the process's shared one ([`MapTable::shared`]).
     pub fn new(model: &Model) -> Option<MapTable> {
         if !tabulable(model) {
             return None;
@@ -401,7 +403,7 @@ impl MapTable {
     /// sweep, a lab) is built for all. Sound because a cell is a pure function of those
     /// parameters and its index, built once behind its `OnceLock` (threads that want it at
     /// the same time wait for the one building it): who built it changes no value, so
-    /// results and saved states replay bit for bit. The last [`SHARED_MODELS`] models'
+    /// results and saved states replay bit for bit. The last eight models'
     /// tables are kept for the life of the process. `None` as for [`MapTable::new`].
     pub fn shared(model: &Model) -> Option<Arc<MapTable>> {
         if !tabulable(model) {
