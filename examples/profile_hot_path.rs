@@ -16,7 +16,10 @@
 //! - `plant-const`, `plant-change`: the in-process `Plant::step(1 ms)`, without / with
 //!   `set_inputs` before every step;
 //! - `terms`: `InputTerms::new` alone (the work of one input change);
-//! - `tracking`: the seed's tracking scenario through the FMU and the Rust PID harness.
+//! - `tracking`: the seed's tracking scenario through the FMU and the Rust PID harness
+//!   (`--runs=K`: K runs, each on a new instance of the one loaded FMU, so the runs after
+//!   the first find the map-table cells the first built; the difference of K = 2 and K = 1
+//!   is the cost of a run with the cells built).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -77,22 +80,28 @@ fn main() -> Result<()> {
             }
         }
         "tracking" => {
+            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
+                Some(k) => k.parse().context("--runs=K")?,
+                None => 1,
+            };
             let fmu = load()?;
             let cfg = PidConfig {
                 sample_time_s: h,
                 ..PidConfig::default()
             };
-            let mut co = CoSimulation::new(
-                &fmu,
-                &CoSimConfig {
-                    step_s: h,
-                    initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
-                    ..CoSimConfig::default()
-                },
-            )?;
-            let mut ctrl = Controller::new(Model::paper(), cfg)?;
-            let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
-            println!("{} samples", run.samples.len());
+            for _ in 0..runs {
+                let mut co = CoSimulation::new(
+                    &fmu,
+                    &CoSimConfig {
+                        step_s: h,
+                        initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
+                        ..CoSimConfig::default()
+                    },
+                )?;
+                let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+                let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
+                println!("{} samples", run.samples.len());
+            }
         }
         other => bail!(
             "unknown workload {other}: fmu-const, fmu-change, plant-const, plant-change, terms, tracking"

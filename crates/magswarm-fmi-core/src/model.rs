@@ -95,6 +95,17 @@ pub trait FmuModel: Clone + Send + Sized + 'static {
 
     /// Value of a Real variable (any causality). `&mut self` so outputs may be computed lazily.
     fn get_real(&mut self, vr: u32) -> Result<f64, ModelError>;
+    /// Values of several Real variables (`fmi2GetReal`, `fmi3GetFloat64`): the shell has
+    /// checked every reference (a Real of the table, not the independent variable). The
+    /// default asks [`FmuModel::get_real`] for each; a model overrides it to do once what
+    /// every output shares (a master reads all its outputs in one call). `Err` names the
+    /// reference that failed.
+    fn get_reals(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), (u32, ModelError)> {
+        for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+            *o = self.get_real(vr).map_err(|e| (vr, e))?;
+        }
+        Ok(())
+    }
     /// Set a Real variable. The shell has already checked that the value is finite and that
     /// the variable may be set now; warnings (e.g. outside the validated envelope) go through
     /// [`Ctx::warning`].

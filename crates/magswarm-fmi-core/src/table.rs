@@ -11,7 +11,12 @@ use crate::status::Refusal;
 use std::collections::{HashMap, HashSet};
 
 use crate::info::ModelInfo;
+use crate::mode::{may_set, Mode};
 use crate::variable::{Causality, Initial, Start, VarType, Variability, Variable};
+
+/// [`Table::is_typed`]'s answer for a variable of the asked type: whether it is the
+/// independent variable.
+pub type IsIndependent = bool;
 
 /// A validated table with a value-reference index.
 #[derive(Debug, Clone)]
@@ -23,8 +28,62 @@ pub struct Table {
     /// Position by value reference for tables whose references are small (every call of
     /// every getter and setter looks references up: a direct index instead of a search).
     dense: Vec<u32>,
+    /// What the getters and setters ask of a reference, by value reference (same range as
+    /// `dense`): the type code ([`type_code`]; 0 for no variable) in the low bits, one bit
+    /// per [`Mode`] in which [`may_set`] allows setting it, and [`INDEPENDENT`]. Built once
+    /// from the same rules, so a call's checks are one load and a mask (refusals still go
+    /// through [`Table::typed`] and [`may_set`] for their messages).
+    kinds: Vec<u16>,
     /// The independent variable (time), answered by the instance itself.
     independent: Option<u32>,
+}
+
+/// Bits of a [`Table`] kind holding the type code.
+const TYPE_BITS: u16 = 0b111;
+/// Kind bit: the independent variable.
+const INDEPENDENT: u16 = 1 << 15;
+/// First kind bit of the settable modes (bit `MODE_SHIFT + mode index`).
+const MODE_SHIFT: u16 = 3;
+
+/// Every [`Mode`], in the order of their kind bits.
+const MODES: [Mode; 9] = [
+    Mode::Instantiated,
+    Mode::InitializationMode,
+    Mode::StepComplete,
+    Mode::StepFailed,
+    Mode::Terminated,
+    Mode::EventMode,
+    Mode::ContinuousTimeMode,
+    Mode::Error,
+    Mode::Fatal,
+];
+
+/// The bit of `mode` in a kind.
+#[inline(always)]
+fn mode_bit(mode: Mode) -> u16 {
+    let i = match mode {
+        Mode::Instantiated => 0,
+        Mode::InitializationMode => 1,
+        Mode::StepComplete => 2,
+        Mode::StepFailed => 3,
+        Mode::Terminated => 4,
+        Mode::EventMode => 5,
+        Mode::ContinuousTimeMode => 6,
+        Mode::Error => 7,
+        Mode::Fatal => 8,
+    };
+    1 << (MODE_SHIFT + i)
+}
+
+/// Non-zero code of a type in a kind.
+#[inline(always)]
+fn type_code(ty: VarType) -> u16 {
+    match ty {
+        VarType::Real => 1,
+        VarType::Integer => 2,
+        VarType::Boolean => 3,
+        VarType::String => 4,
+    }
 }
 
 impl Table {
@@ -55,12 +114,59 @@ impl Table {
         } else {
             Vec::new()
         };
+        let kinds = dense
+            .iter()
+            .map(|&p| match info.variables.get(p as usize) {
+                None => 0,
+                Some(v) => {
+                    let mut k = type_code(v.ty);
+                    for m in MODES {
+                        if may_set(v, m).is_ok() {
+                            k |= mode_bit(m);
+                        }
+                    }
+                    if v.causality == Causality::Independent {
+                        k |= INDEPENDENT;
+                    }
+                    k
+                }
+            })
+            .collect();
         Ok(Table {
             info,
             by_vr,
             dense,
+            kinds,
             independent,
         })
+    }
+
+    /// Whether `vr` is a variable of type `ty` (the check of every getter; [`Table::typed`]
+    /// says why not). Also tells whether it is the independent variable.
+    #[inline(always)]
+    pub fn is_typed(&self, vr: u32, ty: VarType) -> Option<IsIndependent> {
+        if !self.kinds.is_empty() {
+            let k = self.kinds.get(vr as usize).copied().unwrap_or(0);
+            return (k & TYPE_BITS == type_code(ty)).then_some(k & INDEPENDENT != 0);
+        }
+        match self.get(vr) {
+            Some(v) if v.ty == ty => Some(v.causality == Causality::Independent),
+            _ => None,
+        }
+    }
+
+    /// Whether `vr` is a variable of type `ty` that [`may_set`] allows setting in `mode`
+    /// (the check of every setter; [`Table::typed`] and [`may_set`] say why not).
+    #[inline(always)]
+    pub fn is_settable(&self, vr: u32, ty: VarType, mode: Mode) -> bool {
+        if !self.kinds.is_empty() {
+            let k = self.kinds.get(vr as usize).copied().unwrap_or(0);
+            return k & TYPE_BITS == type_code(ty) && k & mode_bit(mode) != 0;
+        }
+        match self.get(vr) {
+            Some(v) if v.ty == ty => may_set(v, mode).is_ok(),
+            _ => false,
+        }
     }
 
     /// Value reference of the independent variable, if the table has one.

@@ -469,6 +469,23 @@ impl FmuModel for MagSwarm {
         })
     }
 
+    fn get_reals(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), (u32, ModelError)> {
+        // A master reads r1 and r2 together: the plant is looked at once for both.
+        let mut radii: Option<[f64; 2]> = None;
+        for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+            *o = if vr == vr::R1 || vr == vr::R2 {
+                let r = match radii {
+                    Some(r) => r,
+                    None => *radii.insert(self.plant().observed_radii()),
+                };
+                r[(vr - vr::R1) as usize] * 1e-3
+            } else {
+                self.get_real(vr).map_err(|e| (vr, e))?
+            };
+        }
+        Ok(())
+    }
+
     fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
             vr::Z_M => {

@@ -217,3 +217,62 @@ fn directional_derivatives_match_finite_differences_with_every_effect() {
         }
     }
 }
+
+/// The shell's per-call checks read a precomputed kind per value reference
+/// (`Table::is_typed`, `Table::is_settable`); they must say exactly what the table lookup
+/// and the setting rules (`may_set`) say, for every reference (known or not), type and
+/// mode, including the independent variable the shell adds to the table.
+#[test]
+fn the_shell_fast_checks_agree_with_the_table_and_the_rules() {
+    use magswarm_fmi::mode::may_set;
+    use magswarm_fmi::table::{with_independent_time, Table};
+    use magswarm_fmi::{Causality, Mode, VarType};
+    let modes = [
+        Mode::Instantiated,
+        Mode::InitializationMode,
+        Mode::StepComplete,
+        Mode::StepFailed,
+        Mode::Terminated,
+        Mode::EventMode,
+        Mode::ContinuousTimeMode,
+        Mode::Error,
+        Mode::Fatal,
+    ];
+    let types = [
+        VarType::Real,
+        VarType::Integer,
+        VarType::Boolean,
+        VarType::String,
+    ];
+    let mut settable = 0;
+    for info in [
+        <MagSwarm as FmuModel>::model_info(),
+        with_independent_time(<MagSwarm as FmuModel>::model_info()),
+    ] {
+        let table = Table::new(info).expect("valid table");
+        let max = info.variables.iter().map(|v| v.vr).max().unwrap();
+        for vr in (0..=max + 3).chain([u32::MAX, 1 << 20]) {
+            for ty in types {
+                let expected = match table.get(vr) {
+                    Some(v) if v.ty == ty => Some(v.causality == Causality::Independent),
+                    _ => None,
+                };
+                assert_eq!(table.is_typed(vr, ty), expected, "vr {vr} {ty:?}");
+                for mode in modes {
+                    let expected = match table.get(vr) {
+                        Some(v) if v.ty == ty => may_set(v, mode).is_ok(),
+                        _ => false,
+                    };
+                    settable += expected as usize;
+                    assert_eq!(
+                        table.is_settable(vr, ty, mode),
+                        expected,
+                        "vr {vr} {ty:?} {mode:?}"
+                    );
+                }
+            }
+        }
+    }
+    // Not vacuous: inputs and parameters are settable in several modes.
+    assert!(settable > 50, "{settable}");
+}

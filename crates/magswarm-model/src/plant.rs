@@ -189,9 +189,10 @@ impl Plant {
 
     /// The map table from the `n`-th input change on (`n` = 0: now), so that a plant that
     /// sees few changes never pays for building it. `table`, if it was built for this
-    /// plant's model (one kept from an earlier plant), is adopted then instead of building
-    /// one; it does not change when the table comes into force, so the plant's behaviour
-    /// depends on `n` and its inputs only.
+    /// plant's model (one kept from an earlier plant), is adopted then instead of taking the
+    /// process's table of that model ([`MapTable::shared`], whose cells the plants of one
+    /// map build once between them); it does not change when the table comes into force,
+    /// so the plant's behaviour depends on `n` and its inputs only.
     pub fn use_map_table_after(&mut self, n: u32, table: Option<&Arc<MapTable>>) {
         if let Some(t) = table.filter(|t| t.answers_for(&self.model)) {
             self.map.table = Some(t.clone());
@@ -222,7 +223,7 @@ impl Plant {
         } else if let Some(t) = candidate.filter(|t| fits(t)) {
             Some(t.clone())
         } else {
-            MapTable::new(&self.model).map(Arc::new)
+            MapTable::shared(&self.model)
         };
         self.terms = InputTerms::with_map(
             &self.model,

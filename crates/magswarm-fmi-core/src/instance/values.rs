@@ -14,14 +14,17 @@ use crate::status::{ModelError, Status};
 use crate::variable::{VarType, Variable};
 
 impl<M: FmuModel> Instance<M> {
-    #[inline]
-    fn check_get(&mut self, f: &'static str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
+    /// Check every reference; `Ok(true)` when one of them is the independent variable.
+    #[inline(always)]
+    fn check_get(&mut self, f: &'static str, vrs: &[u32], ty: VarType) -> Result<bool, Status> {
+        let mut time = false;
         for &vr in vrs {
-            if !matches!(self.table.get(vr), Some(v) if v.ty == ty) {
-                return Err(self.refuse_reference(f, vr, ty));
+            match self.table.is_typed(vr, ty) {
+                Some(independent) => time |= independent,
+                None => return Err(self.refuse_reference(f, vr, ty)),
             }
         }
-        Ok(())
+        Ok(time)
     }
 
     /// `vr` is not a variable of type `ty`: say which it is, if any.
@@ -34,6 +37,8 @@ impl<M: FmuModel> Instance<M> {
         }
     }
 
+    #[cold]
+    #[inline(never)]
     fn getter_error(&mut self, f: &'static str, var_vr: u32, e: ModelError) -> Status {
         let name = self.table.get(var_vr).map_or("?", |v| v.name);
         self.fail(
@@ -45,8 +50,16 @@ impl<M: FmuModel> Instance<M> {
 
     /// Get Reals (`fmi2GetReal`, `fmi3GetFloat64`).
     pub fn get_real(&mut self, f: &'static str, vrs: &[u32], out: &mut [f64]) -> Status {
-        if let Err(s) = self.check_get(f, vrs, VarType::Real) {
-            return s;
+        let time = match self.check_get(f, vrs, VarType::Real) {
+            Ok(time) => time,
+            Err(s) => return s,
+        };
+        if !time {
+            // The common case (a master reading outputs): the model answers all at once.
+            return match self.model.get_reals(vrs, out) {
+                Ok(()) => Status::Ok,
+                Err((vr, e)) => self.getter_error(f, vr, e),
+            };
         }
         let time_vr = self.table.independent();
         for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
@@ -127,15 +140,11 @@ impl<M: FmuModel> Instance<M> {
 
     /// Check every reference before setting anything, so a bad call leaves no variable
     /// half-set.
-    #[inline]
+    #[inline(always)]
     fn check_set(&mut self, f: &'static str, vrs: &[u32], ty: VarType) -> Result<(), Status> {
         let mode = self.shell.mode;
         for &vr in vrs {
-            let ok = match self.table.get(vr) {
-                Some(v) if v.ty == ty => may_set(v, mode).is_ok(),
-                _ => false,
-            };
-            if !ok {
+            if !self.table.is_settable(vr, ty, mode) {
                 return Err(self.refuse_set(f, vr, ty));
             }
         }

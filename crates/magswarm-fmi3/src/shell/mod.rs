@@ -79,18 +79,42 @@ pub(crate) unsafe fn entry<M: FmuModel>(
         // Nothing to log through: the logger lives in the instance.
         return Status::Error;
     };
+    // The checks first, outside the barrier: they read two fields and compare constants
+    // (nothing in them can panic), and here, inlined where `func` is a constant, they fold
+    // into one test of the mode.
+    // SAFETY: `inst` is a live instance (magic checked) and the importer makes no other
+    // call on it while this one runs, so this shared reference is the only one.
+    let ok = {
+        let i = unsafe { &*inst };
+        permitted::<M>(func, i.mode(), i.is_model_exchange())
+    };
+    if !ok {
+        // SAFETY: as above (the shared reference has ended).
+        return unsafe { refused(inst, func) };
+    }
     let result = barrier(|| {
-        // SAFETY: `inst` is a live instance (magic checked) and the importer makes no other
-        // call on it while this one runs, so this is the only reference.
-        let i = unsafe { &mut *inst };
-        if !permitted::<M>(func, i.mode(), i.is_model_exchange()) {
-            return refuse(i, func);
-        }
-        body(i)
+        // SAFETY: as above; this is the only reference for the body's duration.
+        body(unsafe { &mut *inst })
     });
     match result {
         Ok(s) => s,
         // SAFETY: as above; the body's reference ended with its panic.
+        Err(payload) => unsafe { after_panic(inst, func, payload) },
+    }
+}
+
+/// A call [`permitted`] refused: explain it in the log ([`refuse`], under the barrier like
+/// every other body) and return the error.
+///
+/// # Safety
+/// `inst` is a live instance with no other reference during the call.
+#[cold]
+#[inline(never)]
+unsafe fn refused<M: FmuModel>(inst: *mut Instance<M>, func: Func) -> Fmi3Status {
+    // SAFETY: the caller's contract.
+    match barrier(|| refuse(unsafe { &mut *inst }, func)) {
+        Ok(s) => s,
+        // SAFETY: as above; the reference ended with the panic.
         Err(payload) => unsafe { after_panic(inst, func, payload) },
     }
 }

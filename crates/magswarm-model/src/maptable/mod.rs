@@ -51,7 +51,13 @@
 
 use crate::steady::{self, SteadyPoint};
 use crate::Model;
-use std::sync::OnceLock;
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
+
+/// The tables shared by the plants of this process, most recently used last (see
+/// [`MapTable::shared`]).
+static SHARED: Mutex<Vec<Arc<MapTable>>> = Mutex::new(Vec::new());
+/// How many models' tables the process keeps (a fully built table is about half a MB).
+const SHARED_MODELS: usize = 8;
 
 /// Cells per binade of the depth: 2^10 (its fourth derivatives reach 1e10 /m^4).
 const DEPTH_BITS: u32 = 10;
@@ -154,7 +160,8 @@ struct CellBound<const K: usize> {
 
 /// K functions of one positive variable over a range of cells, each cell built (nodes,
 /// coefficients, bound) the first time it is needed: a sweep pays for the cells it visits
-/// (about 5 us each in a release build), not for the whole range.
+/// (about 5 us each in a release build), not for the whole range, and once per process
+/// when its plants share the table ([`MapTable::shared`]).
 #[derive(Debug, Clone)]
 struct Axis<const K: usize> {
     /// `x.to_bits() >> shift` of the first cell.
@@ -367,7 +374,8 @@ impl MapTable {
     /// The tables of `model`'s map over its envelope widened by half its span in z_m and from
     /// f_min / 2 to 2 f_max; `None` when an effect acts on the map ([`tabulable`]) or the
     /// range is degenerate. Cells are built on first use (about 5 us each in a release
-    /// build), so this is quick and a sweep pays for the cells it visits.
+    /// build), so this is quick and a sweep pays for the cells it visits. A table of its
+    /// own: plants take the process's shared one ([`MapTable::shared`]).
     pub fn new(model: &Model) -> Option<MapTable> {
         if !tabulable(model) {
             return None;
@@ -388,6 +396,34 @@ impl MapTable {
             depth,
             freq,
         })
+    }
+
+    /// The process's table for `model`'s map, shared by every plant of the same map
+    /// parameters ([`MapTable::answers_for`]): a cell built by one instance (of an FMU, a
+    /// sweep, a lab) is built for all. Sound because a cell is a pure function of those
+    /// parameters and its index, built once behind its `OnceLock` (threads that want it at
+    /// the same time wait for the one building it): who built it changes no value, so
+    /// results and saved states replay bit for bit. The last eight models'
+    /// tables are kept for the life of the process. `None` as for [`MapTable::new`].
+    pub fn shared(model: &Model) -> Option<Arc<MapTable>> {
+        if !tabulable(model) {
+            return None;
+        }
+        let key = Key::of(model);
+        // Only vector operations run under the lock (no panic can poison it in practice;
+        // if one did, the list is still consistent).
+        let mut tables = SHARED.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some(i) = tables.iter().position(|t| t.key == key) {
+            let t = tables.remove(i);
+            tables.push(t.clone());
+            return Some(t);
+        }
+        let t = Arc::new(MapTable::new(model)?);
+        if tables.len() >= SHARED_MODELS {
+            tables.remove(0);
+        }
+        tables.push(t.clone());
+        Some(t)
     }
 
     /// The depth cell holding d (built if needed), if interpolated.

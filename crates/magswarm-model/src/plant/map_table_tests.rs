@@ -52,3 +52,37 @@ fn table_plant_tracks_the_exact_plant_and_replays_from_snapshots() {
     p.use_map_table(true);
     assert!(p.map_table().is_none() && p.snapshot().map_table);
 }
+
+/// Plants of the same map parameters share one table (its cells are built once per
+/// process), a plant of another map gets its own, and a plant on the shared table (cells
+/// built by another plant, in another thread) is bit for bit the plant on a table of its
+/// own: who built a cell changes no value.
+#[test]
+fn plants_of_one_map_share_the_table_and_it_changes_no_value() {
+    let mut a = Plant::new(Model::paper(), 0.0085, hz(4.0));
+    a.use_map_table_after(0, None);
+    let mut b = Plant::new(Model::paper(), 0.0085, hz(4.0));
+    b.use_map_table_after(0, None);
+    let (ta, tb) = (a.map_table().unwrap(), b.map_table().unwrap());
+    assert!(Arc::ptr_eq(ta, tb), "same map, one table");
+    let mut other = Model::paper();
+    other.steady.C_1 *= 1.01;
+    let mut c = Plant::new(other, 0.0085, hz(4.0));
+    c.use_map_table_after(0, None);
+    assert!(
+        !Arc::ptr_eq(ta, c.map_table().unwrap()),
+        "another map, another table"
+    );
+    // Warm the shared cells from another thread, then compare with a private table.
+    std::thread::spawn(move || sweep(&mut a, 0, 300))
+        .join()
+        .unwrap();
+    let private = Arc::new(MapTable::new(&Model::paper()).unwrap());
+    let mut own = Plant::new(Model::paper(), 0.0085, hz(4.0));
+    own.use_map_table_after(0, Some(&private));
+    assert!(Arc::ptr_eq(own.map_table().unwrap(), &private));
+    sweep(&mut b, 0, 300);
+    sweep(&mut own, 0, 300);
+    assert_eq!(b.state(), own.state());
+    assert_eq!(b.snapshot(), own.snapshot());
+}
