@@ -34,6 +34,19 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// Every mode, in declaration order (the order of the variable table's per-mode bits).
+    pub const ALL: [Mode; 9] = [
+        Mode::Instantiated,
+        Mode::InitializationMode,
+        Mode::StepComplete,
+        Mode::StepFailed,
+        Mode::Terminated,
+        Mode::EventMode,
+        Mode::ContinuousTimeMode,
+        Mode::Error,
+        Mode::Fatal,
+    ];
+
     /// Stable byte for serialized FMU states.
     pub fn to_byte(self) -> u8 {
         match self {

@@ -45,19 +45,6 @@ const INDEPENDENT: u16 = 1 << 15;
 /// First kind bit of the settable modes (bit `MODE_SHIFT + mode index`).
 const MODE_SHIFT: u16 = 3;
 
-/// Every [`Mode`], in the order of their kind bits.
-const MODES: [Mode; 9] = [
-    Mode::Instantiated,
-    Mode::InitializationMode,
-    Mode::StepComplete,
-    Mode::StepFailed,
-    Mode::Terminated,
-    Mode::EventMode,
-    Mode::ContinuousTimeMode,
-    Mode::Error,
-    Mode::Fatal,
-];
-
 /// The bit of `mode` in a kind.
 #[inline(always)]
 fn mode_bit(mode: Mode) -> u16 {
@@ -120,7 +107,7 @@ impl Table {
                 None => 0,
                 Some(v) => {
                     let mut k = type_code(v.ty);
-                    for m in MODES {
+                    for m in Mode::ALL {
                         if may_set(v, m).is_ok() {
                             k |= mode_bit(m);
                         }

@@ -227,17 +227,7 @@ fn the_shell_fast_checks_agree_with_the_table_and_the_rules() {
     use magswarm_fmi::mode::may_set;
     use magswarm_fmi::table::{with_independent_time, Table};
     use magswarm_fmi::{Causality, Mode, VarType};
-    let modes = [
-        Mode::Instantiated,
-        Mode::InitializationMode,
-        Mode::StepComplete,
-        Mode::StepFailed,
-        Mode::Terminated,
-        Mode::EventMode,
-        Mode::ContinuousTimeMode,
-        Mode::Error,
-        Mode::Fatal,
-    ];
+    let modes = Mode::ALL;
     let types = [
         VarType::Real,
         VarType::Integer,
