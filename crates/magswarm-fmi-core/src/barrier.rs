@@ -23,6 +23,26 @@ pub fn drop_payload(payload: Box<dyn std::any::Any + Send>) {
     let _ = barrier(move || drop(payload));
 }
 
+/// Report a panic caught at an entry point: its message through `fail` (the instance's
+/// logger, itself run under the barrier), the payload dropped safely. Returns what `fail`
+/// returned, or Error where reporting panicked too. One body for every shell.
+#[cold]
+#[inline(never)]
+pub fn report_panic(
+    payload: Box<dyn std::any::Any + Send>,
+    fail: impl FnOnce(String) -> crate::Status,
+) -> crate::Status {
+    let msg = panic_message(&*payload);
+    drop_payload(payload);
+    match barrier(|| fail(format!("internal error: the model panicked: {msg}"))) {
+        Ok(s) => s,
+        Err(p) => {
+            drop_payload(p);
+            crate::Status::Error
+        }
+    }
+}
+
 thread_local! {
     /// How deep this thread is inside the shell's panic barrier.
     static IN_BARRIER: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };

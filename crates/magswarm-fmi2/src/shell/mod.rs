@@ -28,7 +28,7 @@
 //! carries a `SAFETY` comment naming which of these promises it relies on
 //! (`unsafe_op_in_unsafe_fn` is denied crate-wide, so none is implicit).
 
-use magswarm_fmi_core::barrier::{barrier, drop_payload, panic_message};
+use magswarm_fmi_core::barrier::{barrier, report_panic};
 use magswarm_fmi_core::{FmuModel, Instance, Status};
 
 use crate::abi::*;
@@ -213,23 +213,11 @@ unsafe fn after_panic<M: FmuModel>(
     func: Func,
     payload: Box<dyn std::any::Any + Send>,
 ) -> Fmi2Status {
-    let msg = panic_message(&*payload);
-    drop_payload(payload);
-    let logged = barrier(|| {
+    report_panic(payload, |msg| {
         // SAFETY: the caller's contract.
-        unsafe { &mut *inst }.fail(
-            func.name(),
-            Status::Error,
-            format!("internal error: the model panicked: {msg}"),
-        )
-    });
-    match logged {
-        Ok(s) => s.into(),
-        Err(p) => {
-            drop_payload(p);
-            Fmi2Status::Error
-        }
-    }
+        unsafe { &mut *inst }.fail(func.name(), Status::Error, msg)
+    })
+    .into()
 }
 
 pub(crate) fn null_arg<M: FmuModel>(i: &mut Instance<M>, func: Func, arg: &str) -> Status {

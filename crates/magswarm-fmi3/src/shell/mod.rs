@@ -27,7 +27,7 @@
 //! also says an instance is never called from two threads at once, which is what makes the
 //! `&mut Instance` of each call the only reference to it.
 
-use magswarm_fmi_core::barrier::{barrier, drop_payload, panic_message};
+use magswarm_fmi_core::barrier::{barrier, report_panic};
 use magswarm_fmi_core::{FmuModel, Instance, Status};
 
 use crate::abi::*;
@@ -206,23 +206,10 @@ unsafe fn after_panic<M: FmuModel>(
     func: Func,
     payload: Box<dyn std::any::Any + Send>,
 ) -> Fmi3Status {
-    let msg = panic_message(&*payload);
-    drop_payload(payload);
-    let logged = barrier(|| {
+    report_panic(payload, |msg| {
         // SAFETY: the caller's contract.
-        unsafe { &mut *inst }.fail(
-            func.name(),
-            Status::Error,
-            format!("internal error: the model panicked: {msg}"),
-        )
-    });
-    match logged {
-        Ok(s) => s,
-        Err(p) => {
-            drop_payload(p);
-            Status::Error
-        }
-    }
+        unsafe { &mut *inst }.fail(func.name(), Status::Error, msg)
+    })
 }
 
 /// Log "argument `arg` must not be NULL" as an error of `func`.
