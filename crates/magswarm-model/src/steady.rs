@@ -54,6 +54,33 @@ pub(crate) fn swarm_rate(model: &Model, w: f64, dw: f64, field: &FieldAtSwarm) -
     }
 }
 
+/// The radii (5) r_i = C_i Phi / S_i^alpha_i and their Jacobian over (z_m, omega) from the
+/// stiffnesses `s`, their derivatives `ds` and Phi with d ln Phi / d omega: the last step of
+/// the map, shared by the exact evaluation and the map table (which must agree bit for bit
+/// where it holds the same S and Phi).
+#[inline(always)]
+pub(crate) fn radii(
+    p: &crate::params::SteadyParams,
+    s: [f64; 2],
+    ds: &[[f64; 2]; 2],
+    phi: f64,
+    dlnphi_dw: f64,
+) -> ([f64; 2], [[f64; 2]; 2]) {
+    let r1 = p.C_1 * phi / crate::fastpow::pow(s[0], p.alpha_1);
+    let r2 = p.C_2 * phi / crate::fastpow::pow(s[1], p.alpha_2);
+    let jac = [
+        [
+            -p.alpha_1 * r1 / s[0] * ds[0][0],
+            r1 * (dlnphi_dw - p.alpha_1 / s[0] * ds[0][1]),
+        ],
+        [
+            -p.alpha_2 * r2 / s[1] * ds[1][0],
+            r2 * (dlnphi_dw - p.alpha_2 / s[1] * ds[1][1]),
+        ],
+    ];
+    ([r1, r2], jac)
+}
+
 /// x^e and d(x^e)/dx for x >= 0, finite at x = 0 (the derivative is then taken as 0 for
 /// e < 1: the map is only used away from omega = 0, and a finite slope keeps Newton sane).
 /// The power is [`crate::fastpow`]'s, within its proven relative bound (< 1e-13 for the
@@ -256,18 +283,7 @@ fn evaluate_core(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     let phi = (p.N * (w_q - 1.0)).exp();
     let dlnphi_dw = p.N * w_qd * dwf;
 
-    let r1 = p.C_1 * phi / crate::fastpow::pow(s_x, p.alpha_1);
-    let r2 = p.C_2 * phi / crate::fastpow::pow(s_y, p.alpha_2);
-    let mut jac = [
-        [
-            -p.alpha_1 * r1 / s_x * ds[0][0],
-            r1 * (dlnphi_dw - p.alpha_1 / s_x * ds[0][1]),
-        ],
-        [
-            -p.alpha_2 * r2 / s_y * ds[1][0],
-            r2 * (dlnphi_dw - p.alpha_2 / s_y * ds[1][1]),
-        ],
-    ];
+    let ([r1, r2], mut jac) = radii(p, [s_x, s_y], &ds, phi, dlnphi_dw);
     if dwf_dz != 0.0 {
         let dlnphi_dz = p.N * w_qd * dwf_dz;
         jac[0][0] += r1 * dlnphi_dz;

@@ -478,18 +478,7 @@ impl MapTable {
         let dpl_dw = part * dl * dw;
         let ds = [[dgx + dpl_dz, dpl_dw], [dgy + dpl_dz, dpl_dw]];
         let dlnphi_dw = dphi / phi * dw;
-        let r1 = p.C_1 * phi / crate::fastpow::pow(s_x, p.alpha_1);
-        let r2 = p.C_2 * phi / crate::fastpow::pow(s_y, p.alpha_2);
-        let jac = [
-            [
-                -p.alpha_1 * r1 / s_x * ds[0][0],
-                r1 * (dlnphi_dw - p.alpha_1 / s_x * ds[0][1]),
-            ],
-            [
-                -p.alpha_2 * r2 / s_y * ds[1][0],
-                r2 * (dlnphi_dw - p.alpha_2 / s_y * ds[1][1]),
-            ],
-        ];
+        let ([r1, r2], jac) = steady::radii(p, [s_x, s_y], &ds, phi, dlnphi_dw);
         Some(SteadyPoint {
             field: model.magnet.at(z_m),
             s_x,
