@@ -189,15 +189,34 @@ impl Dataset {
         )
     }
 
-    /// Settled rows of a visit (all its rows when none is settled).
+    /// Row residuals, measured minus `pred` (per row, r1 and r2) \[mm\].
+    pub fn residuals(&self, pred: &[[f64; 2]]) -> Vec<[f64; 2]> {
+        self.rows
+            .iter()
+            .zip(pred)
+            .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
+            .collect()
+    }
+
+    /// Settled rows of a visit (empty when none is settled).
     pub fn settled_rows(&self, v: usize) -> Vec<usize> {
-        let s: Vec<usize> = self.visits[v]
+        self.visits[v]
             .rows
             .iter()
             .copied()
             .filter(|&i| self.rows[i].settled)
-            .collect();
-        s
+            .collect()
+    }
+
+    /// The rows a visit's mean is taken over: its settled rows, or all its rows when none is
+    /// settled (a visit too short to settle still has a level).
+    pub fn mean_rows(&self, v: usize) -> Vec<usize> {
+        let s = self.settled_rows(v);
+        if s.is_empty() {
+            self.visits[v].rows.clone()
+        } else {
+            s
+        }
     }
 }
 
@@ -323,10 +342,7 @@ pub fn visit_residuals(ds: &Dataset, res: &[[f64; 2]]) -> VisitRes {
     let mut e = Vec::with_capacity(ds.visits.len());
     let mut n = Vec::with_capacity(ds.visits.len());
     for v in 0..ds.visits.len() {
-        let mut rows = ds.settled_rows(v);
-        if rows.is_empty() {
-            rows = ds.visits[v].rows.clone();
-        }
+        let rows = ds.mean_rows(v);
         let k = rows.len().max(1) as f64;
         let mut m = [0.0; 2];
         for &i in &rows {

@@ -275,12 +275,7 @@ pub fn diagnose_with_progress(
     let base_aug = Augmented::baseline(&baseline, &ctx);
     let base_map = candidates::point_map(&base_aug, &ds);
     let base_pred = candidates::predict(&base_aug, &ds);
-    let res: Vec<[f64; 2]> = ds
-        .rows
-        .iter()
-        .zip(&base_pred)
-        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
-        .collect();
+    let res = ds.residuals(&base_pred);
     let n_free = ident.steady.free.len();
     if pe.between_dof == 0 && ds.visits.len() < 3 * n_free {
         return Err(DiagnoseError::TooFewVisits {
@@ -349,18 +344,8 @@ pub fn diagnose_with_progress(
         pb,
     );
     // Unexplained regions, with the discrepancy's withheld recovery.
-    let res_aug: Vec<[f64; 2]> = ds
-        .rows
-        .iter()
-        .zip(&attr.augmented.pred)
-        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
-        .collect();
-    let res_cv: Vec<[f64; 2]> = ds
-        .rows
-        .iter()
-        .zip(&attr.augmented.cv)
-        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
-        .collect();
+    let res_aug = ds.residuals(&attr.augmented.pred);
+    let res_cv = ds.residuals(&attr.augmented.cv);
     let vr_cv = gap::visit_residuals(&ds, &res_cv);
     let pe_aug = data::pure_error_of(&ds, &res_aug);
     // The floor is what a perfect model would leave on withheld rows: the rows' scatter within

@@ -203,14 +203,6 @@ fn setting<'b>(lin: &'b Linear, d: &'b Design, st: &Settings) -> Setting<'b> {
     }
 }
 
-fn residuals(ds: &Dataset, pred: &[[f64; 2]]) -> Vec<[f64; 2]> {
-    ds.rows
-        .iter()
-        .zip(pred)
-        .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
-        .collect()
-}
-
 /// Run the attribution.
 #[allow(clippy::too_many_arguments)]
 pub fn attribute(
@@ -402,12 +394,7 @@ pub fn attribute(
             let q = quantile(&scored[b].null, 1.0 - st.alpha).max(MIN_GAIN);
             let (sc, sp) = detect::surface(ds, &lin.rc);
             let on_surface = cur.extend(&sc, &sp);
-            let g = (|| {
-                let add = columns_of(scored[b].best.as_ref()?, &lin.rc)?;
-                let s0 = Solver::new(&on_surface, &lin.fold_of_stacked, lin.k)?;
-                let s1 = Solver::new(&on_surface.append(&add), &lin.fold_of_stacked, lin.k)?;
-                Some(gain(&s0, &s1, &lin.y, [1.0, 1.0]))
-            })();
+            let g = gain_on_top(lin, &on_surface, scored[b].best.as_ref());
             log::debug!("particle_drift on top of a surface over the inputs: gain {g:?}, null quantile {q:.1}");
             if g.is_some_and(|g| g < q) {
                 confounded = Some(b);
@@ -531,8 +518,8 @@ pub fn attribute(
     }
     out.augmented = ev;
     // Reasons, for the table: the library form's plausibility, regions' residual removed.
-    let res_base = residuals(ds, &base.pred);
-    let res_aug = residuals(ds, &out.augmented.pred);
+    let res_base = ds.residuals(&base.pred);
+    let res_aug = ds.residuals(&out.augmented.pred);
     for e in out.evals.iter_mut().filter(|e| e.accepted) {
         e.model = out.augmented.clone();
         e.closes_gap = !left_significant;
@@ -571,8 +558,12 @@ fn nested_gain(
     base: Option<&Variant>,
     add: Option<&Variant>,
 ) -> Option<f64> {
-    let d = cur.append(&columns_of(base?, &lin.rc)?);
-    let s0 = Solver::new(&d, &lin.fold_of_stacked, lin.k)?;
+    gain_on_top(lin, &cur.append(&columns_of(base?, &lin.rc)?), add)
+}
+
+/// The withheld gain of variant `add` on top of design `d`.
+fn gain_on_top(lin: &Linear, d: &Design, add: Option<&Variant>) -> Option<f64> {
+    let s0 = Solver::new(d, &lin.fold_of_stacked, lin.k)?;
     let s1 = Solver::new(
         &d.append(&columns_of(add?, &lin.rc)?),
         &lin.fold_of_stacked,

@@ -217,41 +217,23 @@ pub fn tests(
         // Lack of fit.
         let m = ds.points.len() as f64;
         let (mut ss_lof, mut ss_pe, mut dof_pe) = (0.0, 0.0, 0.0);
-        if lof_from_visits {
-            for p in 0..ds.points.len() {
-                let es: Vec<f64> = (0..nv)
-                    .filter(|&v| ds.visits[v].point == p)
-                    .map(|v| vr.e[v][a])
-                    .collect();
-                if es.is_empty() {
-                    continue;
-                }
-                let mu = stats::mean(&es);
-                ss_lof += es.len() as f64 * mu * mu;
-                ss_pe += es.iter().map(|e| (e - mu).powi(2)).sum::<f64>();
-                dof_pe += (es.len() - 1) as f64;
-            }
-        } else {
-            for p in 0..ds.points.len() {
-                let es: Vec<f64> = (0..nv)
-                    .filter(|&v| ds.visits[v].point == p)
-                    .flat_map(|v| {
-                        let mut r = ds.settled_rows(v);
-                        if r.is_empty() {
-                            r = ds.visits[v].rows.clone();
-                        }
-                        r
-                    })
+        for p in 0..ds.points.len() {
+            let visits = (0..nv).filter(|&v| ds.visits[v].point == p);
+            let es: Vec<f64> = if lof_from_visits {
+                visits.map(|v| vr.e[v][a]).collect()
+            } else {
+                visits
+                    .flat_map(|v| ds.mean_rows(v))
                     .map(|i| res[i][a])
-                    .collect();
-                if es.is_empty() {
-                    continue;
-                }
-                let mu = stats::mean(&es);
-                ss_lof += es.len() as f64 * mu * mu;
-                ss_pe += es.iter().map(|e| (e - mu).powi(2)).sum::<f64>();
-                dof_pe += (es.len() - 1) as f64;
+                    .collect()
+            };
+            if es.is_empty() {
+                continue;
             }
+            let mu = stats::mean(&es);
+            ss_lof += es.len() as f64 * mu * mu;
+            ss_pe += es.iter().map(|e| (e - mu).powi(2)).sum::<f64>();
+            dof_pe += (es.len() - 1) as f64;
         }
         let d1 = (m - p_ax).max(1.0);
         if dof_pe > 0.0 && ss_pe > 0.0 {

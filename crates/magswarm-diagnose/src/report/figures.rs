@@ -8,13 +8,7 @@ use magswarm_report::residual::{residual_map, ResidualMap};
 
 /// Mean visit residual per point (NaN where a point has no visit).
 fn point_means(d: &Diagnosis, pred: &[[f64; 2]], a: usize) -> Vec<f64> {
-    let res: Vec<[f64; 2]> =
-        d.ds.rows
-            .iter()
-            .zip(pred)
-            .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
-            .collect();
-    let vr = gap::visit_residuals(&d.ds, &res);
+    let vr = gap::visit_residuals(&d.ds, &d.ds.residuals(pred));
     let mut s = vec![(0.0, 0usize); d.ds.points.len()];
     for (v, e) in vr.e.iter().enumerate() {
         let p = d.ds.visits[v].point;
@@ -96,24 +90,8 @@ pub(super) fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<(String, String)>> 
         }
     }
     // Residuals over session time.
-    let vb = gap::visit_residuals(
-        &d.ds,
-        &d.ds
-            .rows
-            .iter()
-            .zip(&d.attr.baseline.pred)
-            .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
-            .collect::<Vec<_>>(),
-    );
-    let va = gap::visit_residuals(
-        &d.ds,
-        &d.ds
-            .rows
-            .iter()
-            .zip(&d.attr.augmented.pred)
-            .map(|(r, p)| [r.r[0] - p[0], r.r[1] - p[1]])
-            .collect::<Vec<_>>(),
-    );
+    let vb = gap::visit_residuals(&d.ds, &d.ds.residuals(&d.attr.baseline.pred));
+    let va = gap::visit_residuals(&d.ds, &d.ds.residuals(&d.attr.augmented.pred));
     let panels: Vec<Panel> = (0..2)
         .map(|a| Panel {
             y_label: format!("residual r{} [mm]", a + 1),
