@@ -54,7 +54,13 @@ def overlaps(a, b, tol):
 def read_csv(path):
     with open(path) as fh:
         rows = list(csv.DictReader(fh))
-    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]} if rows else {}
+    out = {}
+    for k in (rows[0] if rows else []):
+        try:
+            out[k] = np.array([float(r[k]) for r in rows])
+        except ValueError:      # a text column (`session`)
+            pass
+    return out
 
 
 def run_one(scn: dict, logdir: pathlib.Path, outroot: pathlib.Path, extra: list[str], reuse: bool = False) -> dict:
