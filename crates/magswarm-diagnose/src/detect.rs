@@ -7,14 +7,16 @@
 //!
 //! | family | alternatives |
 //! | --- | --- |
-//! | `inputs` | a shape over f (bands such as a step-out), a shape over z_m, a smooth surface over (z_m, f) with interaction, and the strongest box of neighbouring operating points (a local anomaly) |
+//! | `inputs` | a shape over f (bands such as a step-out), a shape over z_m, a smooth surface over (z_m, f) with interaction, the strongest band (every z_m over a run of frequencies, or every f over a run of distances), and the strongest box of neighbouring operating points (a local anomaly) |
 //! | `drift` | a shape over session time (any monotone or sudden course) |
 //! | `formation` | a shape over the time since each input change, scaled by the step of the steady map (any transient: monotone, overshooting, oscillating) |
 //! | `lack_of_fit` | a free mean per operating point (only where points were revisited) |
 //!
 //! Each statistic is the drop of the residual sum of squares (in units of the row noise) that
-//! the alternative achieves, studentised by the visit noise estimated from the same residuals
-//! ([`super::noise`]). Its null distribution comes from logs of pure noise with the log's
+//! the alternative achieves, studentised by the visit noise of the residual the alternative
+//! leaves ([`super::noise::Roughness`]): a structure that inflates the visit noise of the
+//! current residual (a loss of particles makes returns to a point differ) is judged against
+//! the noise left once it is fitted, an F-type ratio. Its null distribution comes from logs of pure noise with the log's
 //! design (visits, rows, sessions) and noise structure (visit offsets and row noise, per axis),
 //! each refitted and re-estimated exactly as the real one. No assumption of independent rows
 //! and no reliance on repeat visits: the roughness of the residual surface gives the visit
@@ -181,17 +183,29 @@ pub fn unweight(e: &DVector<f64>, w: [f64; 2]) -> Vec<[f64; 2]> {
         .collect()
 }
 
-/// The strongest box of neighbouring cells of the (z_m, f) grid: max over boxes of
-/// |sum of visit residuals| / (visit SD sqrt(visits)), per radius (the larger of the two), or,
-/// with `joint`, the root sum of both radii's squares (an anomaly of both radii). With
-/// `proper`, only boxes that span neither every z_m level nor every f level and hold at most
-/// 12 % of the visits (a local anomaly, not a shape along one input: those are the smooth
-/// alternatives' business). Returns (statistic, axis (2: both), z cells, f cells).
+/// Which boxes of the (z_m, f) grid a scan searches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Boxes {
+    /// Local boxes: spanning neither every z_m level nor every f level, holding at most 12 %
+    /// of the visits (a local anomaly, not a shape along one input).
+    Local,
+    /// Bands: every z_m level over a run of f levels (a step-out band, a roll-off past an
+    /// onset), or every f level over a run of z_m levels (a cohesion loss past an onset),
+    /// never the whole grid (an offset the baseline's gains absorb).
+    Bands,
+    /// Bands over f only: every z_m level over a run of f levels (the step-out's signature).
+    BandsF,
+}
+
+/// The strongest box of neighbouring cells of the (z_m, f) grid among `boxes`: max over
+/// boxes of |sum of visit residuals| / (visit SD sqrt(visits)), per radius (the larger of the
+/// two), or, with `joint`, the root sum of both radii's squares (a structure of both radii).
+/// Returns (statistic, axis (2: both), z cells, f cells).
 pub fn box_scan(
     ds: &Dataset,
     res: &[[f64; 2]],
     sd: [f64; 2],
-    proper: bool,
+    boxes: Boxes,
     joint: bool,
 ) -> (f64, usize, (usize, usize), (usize, usize)) {
     let vr = super::data::visit_residuals(ds, res);
@@ -228,11 +242,17 @@ pub fn box_scan(
         for z1 in z0..nz {
             for f0 in 0..nf {
                 for f1 in f0..nf {
-                    if proper && ((z0 == 0 && z1 == nz - 1) || (f0 == 0 && f1 == nf - 1)) {
+                    let (all_z, all_f) = (z0 == 0 && z1 == nz - 1, f0 == 0 && f1 == nf - 1);
+                    let keep = match boxes {
+                        Boxes::Local => !all_z && !all_f,
+                        Boxes::Bands => all_z != all_f,
+                        Boxes::BandsF => all_z && !all_f,
+                    };
+                    if !keep {
                         continue;
                     }
                     let n = rect(&c, z0, z1, f0, f1);
-                    if n < 1.0 || (proper && n > (0.12 * nv as f64).max(4.0)) {
+                    if n < 1.0 || (boxes == Boxes::Local && n > (0.12 * nv as f64).max(4.0)) {
                         continue;
                     }
                     let z = [0, 1].map(|a| rect(&s[a], z0, z1, f0, f1) / (sd[a] * n.sqrt()));
@@ -256,8 +276,23 @@ pub fn box_scan(
 enum Kind {
     /// Index of the alternative's design.
     Design(usize),
-    /// The strongest local box, per radius or of both radii together.
-    Box { joint: bool },
+    /// The strongest box of a kind, per radius or of both radii together.
+    Box { boxes: Boxes, joint: bool },
+}
+
+/// How an alternative's drop of the sum of squares is studentised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Scale {
+    /// By the visit noise of the residual the alternative leaves (its in-sample fit): a
+    /// structure that inflates the current residual's visit noise (a drift makes repeat
+    /// visits at other times differ) is judged against the noise left once it is fitted, in
+    /// the real log and in every simulated one alike (an F-type ratio).
+    Own,
+    /// By the visit noise of the current residual: the lack-of-fit alternative, whose fit
+    /// leaves nothing of a point visited once to estimate the noise from.
+    Current,
+    /// Not at all: a within-visit alternative sees no visit offsets.
+    None,
 }
 
 /// Run the tests on the current residual.
@@ -266,10 +301,11 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let w = st.rc.w;
     let one_fold = vec![0usize; st.y.len()];
     let base = Solver::new(st.base, &one_fold, 1)?;
+    let rough = noise::Roughness::new(ds);
     // Each smooth alternative is judged per radius (an effect may show in one only: a band of
-    // r2), the local box over both.
+    // r2), the boxes over both.
     let mut alts: Vec<(&'static str, String, Kind, Option<usize>)> = Vec::new();
-    let mut designs: Vec<(&'static str, &'static str, Solver)> = Vec::new();
+    let mut designs: Vec<(&'static str, &'static str, Solver, Scale)> = Vec::new();
     for (fam, name, f) in alternatives(ds, st.rc) {
         if name == "since_fine" {
             // The same transient within each visit only (each visit's mean taken out): a
@@ -282,28 +318,28 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             };
             let (cols, pen) = shapes::columns(&g, st.rc);
             if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-                designs.push((fam, "since_within", s));
+                designs.push((fam, "since_within", s, Scale::None));
             }
         }
         let (cols, pen) = shapes::columns(&f, st.rc);
         if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-            designs.push((fam, name, s));
+            designs.push((fam, name, s, Scale::Own));
         }
     }
     let (cols, pen) = surface(ds, st.rc);
     if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-        designs.push(("inputs", "zf_surface", s));
+        designs.push(("inputs", "zf_surface", s, Scale::Own));
     }
     if st.noise.repeat_pairs >= 3 {
         let (cols, pen) = point_means(ds, st.rc);
         if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-            designs.push(("lack_of_fit", "point_means", s));
+            designs.push(("lack_of_fit", "point_means", s, Scale::Current));
         }
     }
-    let within: Vec<bool> = designs.iter().map(|d| d.1 == "since_within").collect();
+    let scales: Vec<Scale> = designs.iter().map(|d| d.3).collect();
     let solvers: Vec<Solver> = designs
         .into_iter()
-        .map(|(fam, name, s)| {
+        .map(|(fam, name, s, _)| {
             for a in 0..2 {
                 alts.push((
                     fam,
@@ -315,55 +351,63 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             s
         })
         .collect();
-    alts.push((
-        "inputs",
-        "local_box".into(),
-        Kind::Box { joint: false },
-        None,
-    ));
-    alts.push((
-        "inputs",
-        "local_box r1+r2".into(),
-        Kind::Box { joint: true },
-        None,
-    ));
-    // The statistics of one (real or simulated) weighted residual; `scale` studentises by the
-    // visit noise this residual shows, relative to the real one's.
-    let stats_of = |y: &DVector<f64>, real_sd: Option<[f64; 2]>| -> Option<(Vec<f64>, [f64; 2])> {
-        let e0 = base.residual(y);
-        let r0 = unweight(&e0, w);
-        let sd = noise::estimate(ds, &r0).ok()?.visit;
-        let rho = match real_sd {
-            Some(r) => [(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)],
-            None => [1.0, 1.0],
+    for (boxes, label) in [(Boxes::Local, "local_box"), (Boxes::Bands, "band")] {
+        for joint in [false, true] {
+            alts.push((
+                "inputs",
+                if joint {
+                    format!("{label} r1+r2")
+                } else {
+                    label.to_string()
+                },
+                Kind::Box { boxes, joint },
+                None,
+            ));
+        }
+    }
+    // The statistics of one (real or simulated) weighted residual, and the visit noise each
+    // design's fit leaves (index 0: the current design's). `real` holds the real log's
+    // noises: a simulated log's drops are studentised relative to them.
+    let stats_of =
+        |y: &DVector<f64>, real: Option<&[[f64; 2]]>| -> Option<(Vec<f64>, Vec<[f64; 2]>)> {
+            let e0 = base.residual(y);
+            let r0 = unweight(&e0, w);
+            let sd0 = rough.visit_sd(&r0).ok()?;
+            let s0 = linear::sse_axes(&e0);
+            let mut sds = Vec::with_capacity(solvers.len() + 1);
+            sds.push(sd0);
+            let mut drops: Vec<[f64; 2]> = Vec::with_capacity(solvers.len());
+            for (j, (s, scale)) in solvers.iter().zip(&scales).enumerate() {
+                let e1 = s.residual(y);
+                let s1 = linear::sse_axes(&e1);
+                let (sd, idx) = match scale {
+                    Scale::Own => (rough.visit_sd_stacked(&e1, w).ok()?, j + 1),
+                    Scale::Current | Scale::None => (sd0, 0),
+                };
+                sds.push(sd);
+                let rho = match (real, scale) {
+                    (_, Scale::None) | (None, _) => [1.0, 1.0],
+                    (Some(r), _) => [(sd[0] / r[idx][0]).powi(2), (sd[1] / r[idx][1]).powi(2)],
+                };
+                drops.push([(s0[0] - s1[0]) / rho[0], (s0[1] - s1[1]) / rho[1]]);
+            }
+            let out = alts
+                .iter()
+                .map(|(_, _, k, a)| match (k, a) {
+                    (Kind::Design(i), Some(a)) => drops[*i][*a],
+                    (Kind::Box { boxes, joint }, _) => box_scan(ds, &r0, sd0, *boxes, *joint).0,
+                    _ => 0.0,
+                })
+                .collect();
+            Some((out, sds))
         };
-        let s0 = linear::sse_axes(&e0);
-        let drops: Vec<[f64; 2]> = solvers
-            .iter()
-            .zip(&within)
-            .map(|(s, &within)| {
-                let s1 = linear::sse_axes(&s.residual(y));
-                // A within-visit alternative sees no visit offsets: not studentised by them.
-                let rho = if within { [1.0, 1.0] } else { rho };
-                [(s0[0] - s1[0]) / rho[0], (s0[1] - s1[1]) / rho[1]]
-            })
-            .collect();
-        let out = alts
-            .iter()
-            .map(|(_, _, k, a)| match (k, a) {
-                (Kind::Design(i), Some(a)) => drops[*i][*a],
-                (Kind::Box { joint }, _) => box_scan(ds, &r0, sd, true, *joint).0,
-                _ => 0.0,
-            })
-            .collect();
-        Some((out, sd))
-    };
-    let (obs, sd) = stats_of(st.y, None)?;
+    let (obs, real_sds) = stats_of(st.y, None)?;
+    let sd = real_sds[0];
     let null: Vec<Vec<f64>> = (0..st.boot)
         .into_par_iter()
         .filter_map(|b| {
             let y = noise::simulate(ds, st.noise, w, st.seed, b);
-            stats_of(&y, Some(sd)).map(|x| x.0)
+            stats_of(&y, Some(&real_sds)).map(|x| x.0)
         })
         .collect();
     let mut out_alts = Vec::new();

@@ -79,6 +79,22 @@ impl Knob {
     }
 }
 
+/// A weak prior on the baseline's free parameters: where the data hold them, nothing; along
+/// the combinations the data barely determine (the exponents against the gains, N against q
+/// of (6)), it keeps a refit from running off to the bounds. The same ridge as the linear
+/// world's design (a coefficient of a unit-norm Jacobian column costs `ridge` times its
+/// square), so that a nonlinear refit per fold and the linear one judge alike: without it a
+/// fold that holds few operating points sends the free parameters to their bounds and its
+/// withheld error says more about that than about the effect being judged.
+#[derive(Debug, Clone, Default)]
+pub struct Anchor {
+    /// The baseline's values of the free parameters (in the order of `free`).
+    pub theta: Vec<f64>,
+    /// Weight of each parameter's departure: the weighted norm of its Jacobian column (row
+    /// noise per unit of the parameter) times the square root of the ridge.
+    pub weight: Vec<f64>,
+}
+
 /// A fitted augmented model on a row subset.
 #[derive(Debug, Clone)]
 pub struct FitResult {
@@ -100,12 +116,21 @@ struct Problem<'a> {
     u: DVector<f64>,
     /// Weight of the second differences of the rate knobs' heights (0: none).
     smooth: f64,
+    /// The prior on the baseline's free parameters.
+    anchor: Option<&'a Anchor>,
 }
 
 impl Problem<'_> {
     fn res_of(&self, a: &Augmented) -> DVector<f64> {
         let pred = candidates::predict(a, self.ds);
-        let rough = roughness(self.knobs, a, self.smooth);
+        let mut rough = roughness(self.knobs, a, self.smooth);
+        if let Some(an) = self.anchor {
+            for (c, k) in self.knobs.iter().enumerate() {
+                if let (Knob::Base(_), Some(t0), Some(w)) = (k, an.theta.get(c), an.weight.get(c)) {
+                    rough.push(w * (k.get(a) - t0));
+                }
+            }
+        }
         let mut out = DVector::zeros(2 * self.train.len() + rough.len());
         for (k, &i) in self.train.iter().enumerate() {
             for ax in 0..2 {
@@ -148,7 +173,9 @@ impl lm::Fit for Problem<'_> {
 
 /// Fit `start` (its effects' parameters and the baseline's `free` parameters) on the rows
 /// `train`, from each of `effect_starts` (values for the last effect's parameters; empty:
-/// start as is). Row residuals are weighted by `sd` per axis.
+/// start as is). Row residuals are weighted by `sd` per axis; `anchor` holds the free
+/// parameters near the baseline where the data do not determine them.
+#[allow(clippy::too_many_arguments)]
 pub fn fit(
     start: &Augmented,
     free: &[Free],
@@ -156,6 +183,7 @@ pub fn fit(
     ctx: &Ctx,
     train: &[usize],
     sd: [f64; 2],
+    anchor: Option<&Anchor>,
     effect_starts: &[Vec<f64>],
 ) -> FitResult {
     let knobs = knobs_of(start, free, ctx);
@@ -188,7 +216,7 @@ pub fn fit(
         let mut ranked: Vec<(f64, Augmented)> = inits
             .into_iter()
             .map(|a| {
-                let (aug, cost) = local_fit(&a, &held, ds, train, sd, 8, 0.0);
+                let (aug, cost) = local_fit(&a, &held, ds, train, sd, anchor, 8, 0.0);
                 (cost, aug)
             })
             .collect();
@@ -197,7 +225,7 @@ pub fn fit(
     }
     let mut best: Option<FitResult> = None;
     for init in inits {
-        let (mut aug, cost) = local_fit(&init, &knobs, ds, train, sd, 30, 0.0);
+        let (mut aug, cost) = local_fit(&init, &knobs, ds, train, sd, anchor, 30, 0.0);
         if best.as_ref().map(|b| cost < b.cost).unwrap_or(true) {
             aug.sync_model();
             let mut at_bound = Vec::new();
@@ -246,12 +274,14 @@ fn knobs_of(start: &Augmented, free: &[Free], ctx: &Ctx) -> Vec<Knob> {
 
 /// A bounded Levenberg-Marquardt fit of `knobs` from `init` on the rows `train`: the fitted
 /// model and its weighted sum of squares (infinite where the model breaks).
+#[allow(clippy::too_many_arguments)]
 fn local_fit(
     init: &Augmented,
     knobs: &[Knob],
     ds: &Dataset,
     train: &[usize],
     sd: [f64; 2],
+    anchor: Option<&Anchor>,
     patience: usize,
     smooth: f64,
 ) -> (Augmented, f64) {
@@ -264,6 +294,7 @@ fn local_fit(
         sd,
         u: u0.clone(),
         smooth,
+        anchor,
     };
     let prob = lm::minimize(
         prob,
@@ -321,14 +352,15 @@ pub fn refit_rates(
     ctx: &Ctx,
     train: &[usize],
     sd: [f64; 2],
+    anchor: Option<&Anchor>,
 ) -> Augmented {
     let bound = 2.0 * ctx.f_max.max(1.0);
     let mut knobs = knobs_of(start, free, ctx);
     let n_before = knobs.len();
     for (term, (_, sh)) in start.learned.iter().enumerate() {
         if sh.family.mode == Mode::Rate {
-            let free_knots = sh.values[0].len() - usize::from(sh.family.pin_last);
-            for idx in 0..free_knots {
+            let first = usize::from(sh.family.pin_first);
+            for idx in first..first + crate::shapes::free_knots(&sh.family) {
                 knobs.push(Knob::Rate { term, idx, bound });
             }
         }
@@ -355,7 +387,7 @@ pub fn refit_rates(
     };
     let mut best: Option<(f64, Augmented)> = None;
     for init in [clamp(start.clone()), zero] {
-        let (aug, cost) = local_fit(&init, &knobs, ds, train, sd, 30, 1.0);
+        let (aug, cost) = local_fit(&init, &knobs, ds, train, sd, anchor, 30, 1.0);
         if best.as_ref().map(|b| cost < b.0).unwrap_or(true) {
             best = Some((cost, aug));
         }

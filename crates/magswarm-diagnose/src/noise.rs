@@ -105,56 +105,8 @@ pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
         };
     }
     let rows_per_visit = settled_n as f64 / ds.visits.len().max(1) as f64;
-    // Visit noise: differences of neighbouring or repeated visits.
-    let vr = super::data::visit_residuals(ds, res);
-    let (cell, nz, nf) = cells(ds);
-    let mut first: Vec<Option<usize>> = vec![None; nz * nf];
-    for (v, &(zi, fi)) in cell.iter().enumerate() {
-        if first[zi * nf + fi].is_none() {
-            first[zi * nf + fi] = Some(v);
-        }
-    }
-    let mut by_point: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
-    for (v, vi) in ds.visits.iter().enumerate() {
-        by_point.entry(vi.point).or_default().push(v);
-    }
-    let mut groups: [Vec<(usize, usize)>; 3] = Default::default();
-    for vs in by_point.values() {
-        for w in vs.windows(2) {
-            groups[0].push((w[0], w[1]));
-        }
-    }
-    for (v, &(zi, fi)) in cell.iter().enumerate() {
-        if zi + 1 < nz {
-            if let Some(u) = first[(zi + 1) * nf + fi] {
-                groups[1].push((v, u));
-            }
-        }
-        if fi + 1 < nf {
-            if let Some(u) = first[zi * nf + fi + 1] {
-                groups[2].push((v, u));
-            }
-        }
-    }
-    let pairs: usize = groups.iter().map(|g| g.len()).sum();
-    if pairs < MIN_PAIRS {
-        return Err(TooFew {
-            pairs,
-            need: MIN_PAIRS,
-        });
-    }
-    let mut visit = [0.0; 2];
-    for a in 0..2 {
-        // Each kind of neighbour centred on its own median (a trend along an input shifts the
-        // differences of that kind alike), then one robust scale for all.
-        let mut d = Vec::with_capacity(pairs);
-        for g in &groups {
-            let dg: Vec<f64> = g.iter().map(|&(u, v)| vr.e[v][a] - vr.e[u][a]).collect();
-            let med = median(&dg);
-            d.extend(dg.iter().map(|x| x - med));
-        }
-        visit[a] = (mad0(&d) / std::f64::consts::SQRT_2).max(1e-6);
-    }
+    let rough = Roughness::new(ds);
+    let visit = rough.visit_sd(res)?;
     let mut between = [0.0; 2];
     for a in 0..2 {
         let part = within[a].powi(2) / rows_per_visit.max(1.0);
@@ -165,9 +117,158 @@ pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
         visit,
         between,
         rows_per_visit,
-        pairs,
-        repeat_pairs: groups[0].len(),
+        pairs: rough.pairs(),
+        repeat_pairs: rough.repeat_pairs(),
     })
+}
+
+/// The pairs of visits whose differences measure the visit noise (repeat visits of a point;
+/// neighbouring cells of the grid of operating points, same f at adjacent z_m and same z_m at
+/// adjacent f) and the rows each visit's mean is taken over. Both are fixed by the design, so
+/// they are found once per data set and serve every residual, the real one and the simulated
+/// ones, under every alternative of the tests: a structure that inflates the visit noise of
+/// the baseline's residual (a drift makes repeat visits at other times differ, a band spoils
+/// neighbouring differences) is judged against the noise left once it is fitted.
+#[derive(Debug, Clone)]
+pub struct Roughness {
+    mean_rows: Vec<Vec<usize>>,
+    /// Repeat pairs, neighbours along z_m, neighbours along f, nearest neighbours in the
+    /// (z_m, f) plane (a design off any grid).
+    groups: [Vec<(usize, usize)>; 4],
+}
+
+impl Roughness {
+    /// The pairs and mean rows of a data set.
+    pub fn new(ds: &Dataset) -> Roughness {
+        let (cell, nz, nf) = cells(ds);
+        let mut first: Vec<Option<usize>> = vec![None; nz * nf];
+        for (v, &(zi, fi)) in cell.iter().enumerate() {
+            if first[zi * nf + fi].is_none() {
+                first[zi * nf + fi] = Some(v);
+            }
+        }
+        let mut by_point: std::collections::BTreeMap<usize, Vec<usize>> = Default::default();
+        for (v, vi) in ds.visits.iter().enumerate() {
+            by_point.entry(vi.point).or_default().push(v);
+        }
+        let mut groups: [Vec<(usize, usize)>; 4] = Default::default();
+        for vs in by_point.values() {
+            for w in vs.windows(2) {
+                groups[0].push((w[0], w[1]));
+            }
+        }
+        for (v, &(zi, fi)) in cell.iter().enumerate() {
+            if zi + 1 < nz {
+                if let Some(u) = first[(zi + 1) * nf + fi] {
+                    groups[1].push((v, u));
+                }
+            }
+            if fi + 1 < nf {
+                if let Some(u) = first[zi * nf + fi + 1] {
+                    groups[2].push((v, u));
+                }
+            }
+        }
+        // Operating points off any grid (a Latin hypercube, setpoints drawn at random): few
+        // visits have a neighbour in the next cell along an input. Each visit is then paired
+        // with the visit at the nearest other operating point, in the (z_m, f) plane scaled
+        // by the data's spans, where a smooth structure differs least.
+        let nv = ds.visits.len();
+        if groups[1].len() + groups[2].len() < nv / 2 {
+            let (zs, fs) = ds.levels();
+            let span = |v: &[f64]| {
+                (v.last().copied().unwrap_or(0.0) - v.first().copied().unwrap_or(0.0)).max(1e-9)
+            };
+            let (sz, sf) = (span(&zs), span(&fs));
+            let xy: Vec<(f64, f64)> = ds
+                .visits
+                .iter()
+                .map(|v| {
+                    let (z, f) = ds.points[v.point];
+                    (z / sz, f / sf)
+                })
+                .collect();
+            let mut seen = std::collections::BTreeSet::new();
+            for v in 0..nv {
+                let near = (0..nv)
+                    .filter(|&u| ds.visits[u].point != ds.visits[v].point)
+                    .min_by(|&a, &b| {
+                        let d =
+                            |u: usize| (xy[u].0 - xy[v].0).powi(2) + (xy[u].1 - xy[v].1).powi(2);
+                        d(a).total_cmp(&d(b))
+                    });
+                if let Some(u) = near {
+                    if seen.insert((u.min(v), u.max(v))) {
+                        groups[3].push((u.min(v), u.max(v)));
+                    }
+                }
+            }
+        }
+        Roughness {
+            mean_rows: (0..nv).map(|v| ds.mean_rows(v)).collect(),
+            groups,
+        }
+    }
+
+    /// Differences the visit noise is estimated from.
+    pub fn pairs(&self) -> usize {
+        self.groups.iter().map(|g| g.len()).sum()
+    }
+
+    /// Repeat visits among them.
+    pub fn repeat_pairs(&self) -> usize {
+        self.groups[0].len()
+    }
+
+    /// Visit noise per axis \[mm\] of row residuals `res` (one row per data row).
+    pub fn visit_sd(&self, res: &[[f64; 2]]) -> Result<[f64; 2], TooFew> {
+        self.sd_of(|i, a| res[i][a])
+    }
+
+    /// Visit noise per axis \[mm\] of stacked residuals weighted by `w` (row `2 i + a`).
+    pub fn visit_sd_stacked(&self, e: &DVector<f64>, w: [f64; 2]) -> Result<[f64; 2], TooFew> {
+        self.sd_of(|i, a| e[2 * i + a] / w[a])
+    }
+
+    fn sd_of(&self, res: impl Fn(usize, usize) -> f64) -> Result<[f64; 2], TooFew> {
+        let pairs = self.pairs();
+        if pairs < MIN_PAIRS {
+            return Err(TooFew {
+                pairs,
+                need: MIN_PAIRS,
+            });
+        }
+        let means: Vec<[f64; 2]> = self
+            .mean_rows
+            .iter()
+            .map(|rows| {
+                let k = rows.len().max(1) as f64;
+                let mut m = [0.0; 2];
+                for &i in rows {
+                    m[0] += res(i, 0) / k;
+                    m[1] += res(i, 1) / k;
+                }
+                m
+            })
+            .collect();
+        let mut visit = [0.0; 2];
+        let mut d = Vec::with_capacity(pairs);
+        for (a, out) in visit.iter_mut().enumerate() {
+            // Each kind of neighbour centred on its own median (a trend along an input shifts
+            // the differences of that kind alike), then one robust scale for all.
+            d.clear();
+            for g in &self.groups {
+                let start = d.len();
+                d.extend(g.iter().map(|&(u, v)| means[v][a] - means[u][a]));
+                let med = median(&d[start..]);
+                for x in &mut d[start..] {
+                    *x -= med;
+                }
+            }
+            *out = (mad0(&d) / std::f64::consts::SQRT_2).max(1e-6);
+        }
+        Ok(visit)
+    }
 }
 
 fn median(x: &[f64]) -> f64 {

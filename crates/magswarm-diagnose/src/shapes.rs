@@ -105,7 +105,10 @@ pub struct Family {
     pub mode: Mode,
     /// Knots (strictly increasing).
     pub knots: Vec<f64>,
-    /// Heights of the last knot held at 0 (a transient that has died out).
+    /// Heights of the first knot held at 0 (a band that starts past it).
+    pub pin_first: bool,
+    /// Heights of the last knot held at 0 (a transient that has died out, a band that ends
+    /// before it).
     pub pin_last: bool,
     /// Roughness weight relative to the columns' mean information.
     pub smooth: f64,
@@ -132,6 +135,7 @@ impl Family {
             axis,
             mode,
             knots,
+            pin_first: false,
             pin_last: false,
             smooth,
             amp: 0.0,
@@ -304,9 +308,9 @@ impl RowCtx {
     }
 }
 
-/// Heights that are unknowns (all but a pinned last knot).
-fn free_knots(f: &Family) -> usize {
-    f.knots.len() - usize::from(f.pin_last)
+/// Heights that are unknowns (all but pinned end knots).
+pub fn free_knots(f: &Family) -> usize {
+    f.knots.len() - usize::from(f.pin_first) - usize::from(f.pin_last)
 }
 
 /// One set of heights for both radii (a rate deficit acts on the whole swarm, an aspect change
@@ -319,14 +323,16 @@ fn shared(f: &Family) -> bool {
 /// its roughness penalty, scaled to the columns' information.
 pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     let k = free_knots(f);
+    let first = usize::from(f.pin_first);
     let n = rc.len();
     let blocks = if shared(f) { 1 } else { 2 };
     let mut a = DMatrix::zeros(2 * n, blocks * k);
     for i in 0..n {
         for (j, wt) in hat(&f.knots, rc.x(f.axis, i)) {
-            if j >= k {
+            if j < first || j >= first + k {
                 continue;
             }
+            let j = j - first;
             for ax in 0..2 {
                 if blocks == 2 && !f.axes[ax] {
                     continue;
@@ -394,7 +400,11 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
     let one = shared(f);
     let take = |v: &[f64], a: usize| -> Vec<f64> {
         let b = if one { 0 } else { a };
-        let mut out: Vec<f64> = v[b * k..(b + 1) * k].to_vec();
+        let mut out: Vec<f64> = Vec::with_capacity(f.knots.len());
+        if f.pin_first {
+            out.push(0.0);
+        }
+        out.extend_from_slice(&v[b * k..(b + 1) * k]);
         if f.pin_last {
             out.push(0.0);
         }
@@ -430,6 +440,7 @@ mod tests {
                 axis: Axis::Z,
                 mode: Mode::Add,
                 knots: k.to_vec(),
+                pin_first: false,
                 pin_last: false,
                 amp: 0.0,
                 axes: [true; 2],

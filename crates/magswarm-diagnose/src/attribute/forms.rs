@@ -23,6 +23,9 @@ pub(super) fn choose_forms(
     // The last library fit (free parameters and library forms fitted together).
     let mut last_lib: Option<Augmented> = None;
     let one = vec![0usize; lin.y.len()];
+    // The library form and the learned shape are judged on operating points their fits
+    // never saw.
+    let pfolds = Folds::of_points(lin, st.seed);
     for (name, vs) in named {
         let vs = &prune_axes(lin, &design, vs);
         let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
@@ -80,6 +83,7 @@ pub(super) fn choose_forms(
             lin.ctx,
             &all,
             lin.noise.row(),
+            None,
             &starts,
         );
         progress.inc(1);
@@ -107,38 +111,51 @@ pub(super) fn choose_forms(
         // withheld residual. (A column from the full fit with a free amplitude would know
         // the withheld visits through the fitted location.)
         let cv_sse = |m: &Augmented, starts: &[Vec<f64>]| {
-            let cv = library_cv_from(lin, m, starts);
-            linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
-                let (i, a) = (s / 2, s % 2);
-                let v = lin.rc.w[a] * (ds.rows[i].r[a] - cv[i][a]);
-                if v.is_finite() {
-                    v
-                } else {
-                    1e3
-                }
-            }))
+            sse_rows(lin, &library_cv_from(lin, m, starts, &pfolds))
         };
-        let g_param = match &before {
-            Some(_) if col.norm() > 1e-9 => {
-                // A form with a location (a step-out frequency, an onset distance) finds it on
-                // each fold's own rows; the others (time scales, rates: global, and costly
-                // to search per fold for a transient) refit locally from the full fit.
-                let located = name
-                    .fit_params(lin.ctx)
-                    .iter()
-                    .any(|p| p.location.is_some());
-                let e1 = if located {
-                    cv_sse(&start, &starts)
-                } else {
-                    cv_sse(&fr.aug, &[])
-                };
-                let e0 = cv_sse(&without, &[]);
-                0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
+        // The library form's withheld SS: each fold refitted by the nonlinear fitter. A form
+        // with a location (a step-out frequency, an onset distance) finds it on each fold's
+        // own rows; the others (time scales, rates: global, and costly to search per fold
+        // for a transient) refit locally from the full fit.
+        let located = name
+            .fit_params(lin.ctx)
+            .iter()
+            .any(|p| p.location.is_some());
+        let e0 = cv_sse(&without, &[]);
+        let e1 = (before.is_some() && col.norm() > 1e-9).then(|| {
+            if located {
+                cv_sse(&start, &starts)
+            } else {
+                cv_sse(&fr.aug, &[])
             }
-            _ => f64::NEG_INFINITY,
-        };
-        let use_learned =
-            is_shape && g_learned_model.is_finite() && g_param < 0.9 * g_learned_model;
+        });
+        let g_param = e1.map_or(f64::NEG_INFINITY, |e1| {
+            0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
+        });
+        // The learned shape's withheld SS through the same pipeline as the model file it
+        // would be written in: per fold, its heights (and the learned shapes named before it)
+        // from the linear fit of that fold's rows, then the free parameters and the library
+        // forms named before it refitted by the nonlinear fitter with the heights held. The
+        // two forms are judged by one yardstick, what users would run.
+        let el = is_shape.then(|| {
+            let mut all = learned.clone();
+            for v in vs {
+                if let Variant::Shape(f) = v {
+                    all.push((*name, f.clone()));
+                }
+            }
+            let cv = learned_cv(lin, &all, last_lib.as_ref(), &pfolds);
+            sse_rows(lin, &cv)
+        });
+        let g_learned_nl = el.map_or(f64::NEG_INFINITY, |el| {
+            0.5 * (e0[0] - el[0] + e0[1] - el[1])
+        });
+        log::debug!(
+            "{}: withheld SS without it {e0:?}, library form {e1:?}, learned shape {el:?}; linear gain of the learned shape {g_learned_model:.1} (model directions) / {g_learned:.1}",
+            name.name()
+        );
+        // The library form where it gains at least 90 % of what the learned shape gains.
+        let use_learned = is_shape && g_learned_nl.is_finite() && g_param < 0.9 * g_learned_nl;
         let learned_pred = shape_design
             .as_ref()
             .filter(|_| is_shape)
@@ -171,7 +188,7 @@ pub(super) fn choose_forms(
             design = shape_design.expect("shape design");
             model_d = shape_model_d.expect("shape design");
             if let Some(e) = e {
-                e.form_gains = Some((g_param, g_learned_model));
+                e.form_gains = Some((g_param, g_learned_nl));
             }
         } else {
             parametric.push(*name);
@@ -180,28 +197,16 @@ pub(super) fn choose_forms(
             design = param_design;
             model_d = model_d.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
             if let Some(e) = e {
-                e.form_gains = Some((g_param, g_learned_model));
+                e.form_gains = Some((g_param, g_learned_nl));
             }
         }
         let _ = st;
     }
     // The final model: learned heights and the free parameters from the linear fit; the
     // library forms refitted by the nonlinear fitter with the learned shapes held.
-    let mut aug = linear_model(lin, &learned).unwrap_or_else(|| lin.base.clone());
+    let aug = linear_model(lin, &learned).unwrap_or_else(|| lin.base.clone());
     let all: Vec<usize> = (0..ds.rows.len()).collect();
-    if let Some(mut lib) = last_lib {
-        // From the last library fit, which fitted the free parameters and every library form
-        // together (a joint refit from neutral values would stay where the effects vanish),
-        // with the learned shapes' heights from the linear fit.
-        lib.learned = aug.learned.clone();
-        aug = fitter::fit(&lib, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
-    } else if !aug.learned.is_empty() {
-        // The free parameters refitted by the nonlinear fitter with the learned heights held:
-        // the linear fit's one step from the baseline is exact only near it.
-        aug = fitter::fit(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row(), &[]).aug;
-    }
-    // A learned rate deficit acts nonlinearly: its heights refitted with the rest.
-    aug = fitter::refit_rates(&aug, lin.free, ds, lin.ctx, &all, lin.noise.row());
+    let mut aug = written(lin, aug, last_lib.as_ref(), &all, None);
     aug.sync_model();
     for (name, sh) in &aug.learned {
         if let Some(e) = out.evals.iter_mut().find(|e| e.kind == *name) {
@@ -214,20 +219,56 @@ pub(super) fn choose_forms(
 /// Withheld predictions of a fitted augmented model: each fold refitted on the other folds'
 /// rows by the nonlinear fitter, from the full fit.
 pub(super) fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
-    library_cv_from(lin, full, &[])
+    library_cv_from(lin, full, &[], &Folds::of_visits(lin))
+}
+
+/// A fold of every row.
+pub(super) struct Folds {
+    of_row: Vec<usize>,
+    k: usize,
+}
+
+impl Folds {
+    /// The selection's folds: grouped by visit.
+    fn of_visits(lin: &Linear) -> Folds {
+        Folds {
+            of_row: (0..lin.ds.rows.len())
+                .map(|i| lin.fold_of_stacked[2 * i])
+                .collect(),
+            k: lin.k,
+        }
+    }
+
+    /// Folds grouped by operating point: every visit of a point withheld together, so that
+    /// a fold's model predicts operating points it never saw, as a withheld log at other
+    /// points asks of the written model (where points are revisited, folds by visit test
+    /// only a return to a point already fitted, and favour a shape that is right at the
+    /// measured points over a form that is right between them).
+    fn of_points(lin: &Linear, seed: u64) -> Folds {
+        let np = lin.ds.points.len();
+        let k = lin.k.min(np).max(2);
+        let fp = folds(np, k, seed ^ 0x9017);
+        Folds {
+            of_row: lin.ds.rows.iter().map(|r| fp[r.point]).collect(),
+            k,
+        }
+    }
 }
 
 /// Withheld predictions of a model refitted per fold by the nonlinear fitter from `start`,
 /// with `starts` for its last effect's multi-start search (empty: a local refit from `start`).
 /// With starts, every fold finds the effect's location on its own training rows: a refit
 /// from the full fit would start where all rows put it, the withheld ones included.
-fn library_cv_from(lin: &Linear, start: &Augmented, starts: &[Vec<f64>]) -> Vec<[f64; 2]> {
+fn library_cv_from(
+    lin: &Linear,
+    start: &Augmented,
+    starts: &[Vec<f64>],
+    folds: &Folds,
+) -> Vec<[f64; 2]> {
     let ds = lin.ds;
     let mut cv = vec![[0.0; 2]; ds.rows.len()];
-    let fold_of_row: Vec<usize> = (0..ds.rows.len())
-        .map(|i| lin.fold_of_stacked[2 * i])
-        .collect();
-    for f in 0..lin.k {
+    let fold_of_row = &folds.of_row;
+    for f in 0..folds.k {
         let train: Vec<usize> = (0..ds.rows.len())
             .filter(|&i| fold_of_row[i] != f)
             .collect();
@@ -241,6 +282,7 @@ fn library_cv_from(lin: &Linear, start: &Augmented, starts: &[Vec<f64>]) -> Vec<
             lin.ctx,
             &train,
             lin.noise.row(),
+            Some(&lin.anchor),
             starts,
         );
         let p = candidates::predict(&fr.aug, ds);
@@ -292,4 +334,90 @@ fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
         out.push(best);
     }
     out
+}
+
+/// Weighted sum of squares per axis of the rows' errors against predictions `p`.
+fn sse_rows(lin: &Linear, p: &[[f64; 2]]) -> [f64; 2] {
+    let ds = lin.ds;
+    linear::sse_axes(&DVector::from_fn(lin.y.len(), |s, _| {
+        let (i, a) = (s / 2, s % 2);
+        let v = lin.rc.w[a] * (ds.rows[i].r[a] - p[i][a]);
+        if v.is_finite() {
+            v
+        } else {
+            1e3
+        }
+    }))
+}
+
+/// Withheld predictions of the model file that the learned shapes `learned` (with the library
+/// forms of `lib`, if any) would make: per fold, the heights from the linear fit of the fold's
+/// rows, then the free parameters (and library forms) refitted by the nonlinear fitter with
+/// the heights held, as [`choose_forms`] writes the final model.
+fn learned_cv(
+    lin: &Linear,
+    learned: &[(EffectKind, Family)],
+    lib: Option<&Augmented>,
+    folds: &Folds,
+) -> Vec<[f64; 2]> {
+    let ds = lin.ds;
+    let n = ds.rows.len();
+    let mut cv = lin.p0.clone();
+    let fold_of_row = &folds.of_row;
+    for f in 0..folds.k {
+        let train: Vec<usize> = (0..n).filter(|&i| fold_of_row[i] != f).collect();
+        if train.len() == n {
+            continue;
+        }
+        let keep: Vec<bool> = (0..2 * n).map(|s| fold_of_row[s / 2] != f).collect();
+        let Some(aug) = linear_model_on(lin, learned, Some(&keep)) else {
+            continue;
+        };
+        let aug = written(lin, aug, lib, &train, Some(&lin.anchor));
+        let p = candidates::predict(&aug, ds);
+        for i in 0..n {
+            if fold_of_row[i] == f {
+                cv[i] = p[i];
+            }
+        }
+    }
+    cv
+}
+
+/// The model file written from a linear fit `aug` (learned heights and the free parameters
+/// moved by their coefficients) on the rows `rows`: with library forms (`lib`, the last
+/// library fit, which fitted the free parameters and every library form together: a joint
+/// refit from neutral values would stay where the effects vanish), those refitted with the
+/// learned heights held; otherwise the free parameters refitted with the heights held, from
+/// the linear step and from the baseline's values (the linear step is exact only near the
+/// baseline: on a fold that lacks some operating points it can move a barely determined
+/// combination far enough for the nonlinear model to extrapolate wildly), keeping the better
+/// fit; a learned rate deficit's heights refitted with the rest.
+fn written(
+    lin: &Linear,
+    aug: Augmented,
+    lib: Option<&Augmented>,
+    rows: &[usize],
+    anchor: Option<&fitter::Anchor>,
+) -> Augmented {
+    let (ds, sd) = (lin.ds, lin.noise.row());
+    let fit = |a: &Augmented| fitter::fit(a, lin.free, ds, lin.ctx, rows, sd, anchor, &[]);
+    let aug = if let Some(lib) = lib {
+        let mut l = lib.clone();
+        l.learned = aug.learned.clone();
+        fit(&l).aug
+    } else if !aug.learned.is_empty() {
+        let from_step = fit(&aug);
+        let mut at_base = aug.clone();
+        at_base.model = lin.base.model.clone();
+        let from_base = fit(&at_base);
+        if from_base.cost < from_step.cost {
+            from_base.aug
+        } else {
+            from_step.aug
+        }
+    } else {
+        aug
+    };
+    fitter::refit_rates(&aug, lin.free, ds, lin.ctx, rows, sd, anchor)
 }

@@ -56,50 +56,72 @@ pub(super) fn score_round(
                 .collect()
         })
         .collect();
-    // Gains of every candidate (best variant) on one weighted residual.
-    let gains_of = |y: &DVector<f64>, real_sd: Option<[f64; 2]>| -> Option<Vec<(f64, usize)>> {
-        let e0 = cur_in.residual(y);
-        let r0 = detect::unweight(&e0, lin.rc.w);
-        let sd = noise::estimate(ds, &r0).ok()?.visit;
-        let rho = match real_sd {
-            Some(r) => [(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)],
-            None => [1.0, 1.0],
-        };
-        let mut out = Vec::with_capacity(cands.len());
-        for (ci, (_, vs)) in cands.iter().enumerate() {
-            let mut best = (f64::NEG_INFINITY, 0);
-            for (vi, v) in vs.iter().enumerate() {
-                let g = match v {
-                    Variant::Anomaly => {
-                        let (c, p) = anomaly_columns(lin, &e0);
-                        match Solver::new(&cur.extend(&c, &p), &lin.fold_of_stacked, lin.k) {
-                            Some(s) => gain(&cur_s, &s, y, rho),
-                            None => f64::NEG_INFINITY,
+    let rough = noise::Roughness::new(ds);
+    // Gains of every candidate (best variant) on one weighted residual, each variant's
+    // studentised by the visit noise its own fit leaves (an F-type ratio: a structure that
+    // inflates the current residual's visit noise, a drift that makes repeat visits at other
+    // times differ, is judged against the noise left once it is fitted), and those noises.
+    // `real` holds the real log's noises per candidate and variant: a simulated log's gains
+    // are studentised relative to them.
+    type Noises = Vec<Vec<[f64; 2]>>;
+    let gains_of =
+        |y: &DVector<f64>, real: Option<&Noises>| -> Option<(Vec<(f64, usize)>, Noises)> {
+            let e0 = cur_in.residual(y);
+            let mut out = Vec::with_capacity(cands.len());
+            let mut sds: Noises = Vec::with_capacity(cands.len());
+            for (ci, (_, vs)) in cands.iter().enumerate() {
+                let mut best = (f64::NEG_INFINITY, 0);
+                let mut sd_c = Vec::with_capacity(vs.len());
+                for (vi, v) in vs.iter().enumerate() {
+                    let found;
+                    let solver = match v {
+                        Variant::Anomaly => {
+                            let (c, p) = anomaly_columns(lin, &e0);
+                            found = Solver::new(&cur.extend(&c, &p), &lin.fold_of_stacked, lin.k);
+                            found.as_ref()
                         }
+                        Variant::Band => {
+                            found = band_family(lin, &e0).and_then(|f| {
+                                Solver::new(
+                                    &cur.append(&shapes::design(&f, &lin.rc)),
+                                    &lin.fold_of_stacked,
+                                    lin.k,
+                                )
+                            });
+                            found.as_ref()
+                        }
+                        _ => fixed[ci][vi].as_ref(),
+                    };
+                    let Some(s) = solver else {
+                        sd_c.push([1.0, 1.0]);
+                        continue;
+                    };
+                    let sd = rough.visit_sd_stacked(&s.residual(y), lin.rc.w).ok()?;
+                    sd_c.push(sd);
+                    let rho = match real {
+                        Some(r) => {
+                            let r = r[ci][vi];
+                            [(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)]
+                        }
+                        None => [1.0, 1.0],
+                    };
+                    let g = gain(&cur_s, s, y, rho);
+                    if g > best.0 {
+                        best = (g, vi);
                     }
-                    _ => match &fixed[ci][vi] {
-                        Some(s) => gain(&cur_s, s, y, rho),
-                        None => f64::NEG_INFINITY,
-                    },
-                };
-                if g > best.0 {
-                    best = (g, vi);
                 }
+                out.push(best);
+                sds.push(sd_c);
             }
-            out.push(best);
-        }
-        Some(out)
-    };
-    let real_sd = noise::estimate(ds, &detect::unweight(&cur_in.residual(&lin.y), lin.rc.w))
-        .ok()?
-        .visit;
-    let obs = gains_of(&lin.y, None)?;
+            Some((out, sds))
+        };
+    let (obs, real_sds) = gains_of(&lin.y, None)?;
     let seed = st.seed ^ (round as u64).wrapping_mul(0xA77_0001);
     let null: Vec<Vec<(f64, usize)>> = (0..st.boot)
         .into_par_iter()
         .filter_map(|b| {
             let y = noise::simulate(ds, &lin.noise, lin.rc.w, seed, b);
-            gains_of(&y, Some(real_sd))
+            gains_of(&y, Some(&real_sds)).map(|x| x.0)
         })
         .collect();
     let one_fold_e0 = cur_in.residual(&lin.y);
@@ -115,6 +137,7 @@ pub(super) fn score_round(
                         let (c, _) = anomaly_columns(lin, &one_fold_e0);
                         Some(Variant::Column("box", c))
                     }
+                    Variant::Band => band_family(lin, &one_fold_e0).map(Variant::Shape),
                     v => Some(v.clone()),
                 };
                 Scored {

@@ -37,6 +37,9 @@ pub(super) enum Variant {
     Column(&'static str, DMatrix<f64>),
     Columns(&'static str, DMatrix<f64>, DMatrix<f64>),
     Anomaly,
+    /// The strongest band over f at every z_m, found on each residual (real or simulated):
+    /// heights free over the band's frequencies, pinned at 0 at the levels beside it.
+    Band,
 }
 
 /// The candidates and their variants.
@@ -63,10 +66,20 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
         for &mode in modes {
             for s in [0.1, 1.0] {
                 let knots = shapes::knots_of(&xs, fs.len().clamp(2, 10));
-                v.push(Variant::Shape(Family::new(Axis::F { nu }, mode, knots, s)));
+                // No lag at the lowest frequency: the swarm follows a slow field. A height
+                // there would trade with the baseline's gains and with Phi (6) over every
+                // frequency, and the written model would carry that trade between the
+                // measured frequencies.
+                v.push(Variant::Shape(Family {
+                    pin_first: true,
+                    ..Family::new(Axis::F { nu }, mode, knots, s)
+                }));
             }
         }
     }
+    // A step-out band: a run of frequencies where the swarm departs from the map at every
+    // z_m, with edges sharper than a smoothed shape over the whole range allows.
+    v.push(Variant::Band);
     out.push((Cand::Effect(EffectKind::PhaseLag), v));
     // A cohesion loss loosens the whole swarm: both radii grow together past an onset (a
     // relative change shared by both radii), or it shows in one radius only. It never
@@ -205,7 +218,7 @@ pub(super) fn columns_of(v: &Variant, rc: &RowCtx) -> Option<Design> {
             DMatrix::identity(c.ncols(), c.ncols()) * 1e-8,
         )),
         Variant::Columns(_, c, p) => Some(Design::new(c.clone(), p.clone())),
-        Variant::Anomaly => None,
+        Variant::Anomaly | Variant::Band => None,
     }
 }
 
@@ -214,10 +227,10 @@ pub(super) fn columns_of(v: &Variant, rc: &RowCtx) -> Option<Design> {
 pub(super) fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
     let ds = lin.ds;
     let r0 = detect::unweight(e0, lin.rc.w);
-    let sd = noise::estimate(ds, &r0)
-        .map(|n| n.visit)
+    let sd = noise::Roughness::new(ds)
+        .visit_sd(&r0)
         .unwrap_or(lin.noise.visit);
-    let (_, _, zr, fr) = detect::box_scan(ds, &r0, sd, true, false);
+    let (_, _, zr, fr) = detect::box_scan(ds, &r0, sd, detect::Boxes::Local, false);
     let (cell, _, _) = noise::cells(ds);
     let n = ds.rows.len();
     let mut a = DMatrix::zeros(2 * n, 2);
@@ -232,6 +245,47 @@ pub(super) fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>,
     (a, DMatrix::identity(2, 2) * 1e-8)
 }
 
+/// The strongest band over f at every z_m of the in-sample residual `e0` (weighted,
+/// stacked), as a shape over f in mm: heights free at the band's frequency levels (at most
+/// 6 knots), pinned at 0 at the levels on either side of it, flat beyond the data. None
+/// without a band (fewer than two frequency levels).
+pub(super) fn band_family(lin: &Linear, e0: &DVector<f64>) -> Option<Family> {
+    let ds = lin.ds;
+    let r0 = detect::unweight(e0, lin.rc.w);
+    let sd = noise::Roughness::new(ds)
+        .visit_sd(&r0)
+        .unwrap_or(lin.noise.visit);
+    let (stat, _, _, fr) = detect::box_scan(ds, &r0, sd, detect::Boxes::BandsF, false);
+    if stat <= 0.0 {
+        return None;
+    }
+    let (_, fs) = ds.levels();
+    let bins = crate::data::level_bins(&fs, 10);
+    let (lo, hi) = (bins.get(fr.0)?.0, bins.get(fr.1)?.1);
+    let inside: Vec<f64> = fs
+        .iter()
+        .copied()
+        .filter(|&f| f >= lo - 1e-9 && f <= hi + 1e-9)
+        .collect();
+    let mut knots = shapes::knots_of(&inside, 6);
+    let pin_first = fr.0 > 0;
+    let pin_last = fr.1 + 1 < bins.len();
+    if pin_first {
+        knots.insert(0, bins[fr.0 - 1].1);
+    }
+    if pin_last {
+        knots.push(bins[fr.1 + 1].0);
+    }
+    if knots.windows(2).any(|w| w[1] <= w[0]) {
+        return None;
+    }
+    Some(Family {
+        pin_first,
+        pin_last,
+        ..Family::new(Axis::F { nu: 0.0 }, Mode::Add, knots, 0.1)
+    })
+}
+
 pub(super) fn describe(v: &Variant) -> String {
     match v {
         Variant::Shape(f) => format!(
@@ -243,5 +297,6 @@ pub(super) fn describe(v: &Variant) -> String {
         Variant::Column(n, _) => format!("library form's {n} (amplitude free)"),
         Variant::Columns(n, ..) => format!("library form's {n}"),
         Variant::Anomaly => "strongest small box of operating points".into(),
+        Variant::Band => "strongest band over f at every z_m (mm)".into(),
     }
 }

@@ -29,6 +29,9 @@ pub struct Linear<'a> {
     pub k: usize,
     /// Free parameters of the baseline.
     pub free: &'a [Free],
+    /// The prior that holds them near the baseline in nonlinear refits (the linear design's
+    /// ridge).
+    pub anchor: fitter::Anchor,
 }
 
 impl<'a> Linear<'a> {
@@ -59,6 +62,7 @@ impl<'a> Linear<'a> {
         // Jacobian of the predictions in the free parameters, each column scaled to unit norm
         // (only the span matters).
         let mut a = DMatrix::zeros(2 * n, free.len());
+        let mut anchor = fitter::Anchor::default();
         for (c, f) in free.iter().enumerate() {
             let th = params::get(&base.model, f.name());
             let h = 1e-4 * th.abs().max(1e-3);
@@ -75,6 +79,8 @@ impl<'a> Linear<'a> {
             if nrm > 0.0 {
                 a.column_mut(c).scale_mut(1.0 / nrm);
             }
+            anchor.theta.push(th);
+            anchor.weight.push(nrm * ANCHOR_RIDGE.sqrt());
         }
         // A small ridge on the unit-norm columns: a fold's refit must not run along the nearly
         // unidentified combinations of the steady parameters (exponents against gains), where
@@ -196,6 +202,7 @@ impl<'a> Linear<'a> {
             fold_of_stacked,
             k,
             free,
+            anchor,
         }
     }
 
@@ -225,12 +232,31 @@ impl<'a> Linear<'a> {
 /// transient directions stay out: the model file has no parameter for them, so a learned
 /// shape must carry what they would take up.
 pub(super) fn linear_model(lin: &Linear, learned: &[(EffectKind, Family)]) -> Option<Augmented> {
-    let d = lin.model_design(learned);
+    linear_model_on(lin, learned, None)
+}
+
+/// [`linear_model`] fitted on the stacked rows `keep` marks (all where None): the model a
+/// fold's rows alone would write.
+pub(super) fn linear_model_on(
+    lin: &Linear,
+    learned: &[(EffectKind, Family)],
+    keep: Option<&[bool]>,
+) -> Option<Augmented> {
+    let mut d = lin.model_design(learned);
+    let mut y = lin.y.clone();
+    if let Some(keep) = keep {
+        for (s, &k) in keep.iter().enumerate() {
+            if !k {
+                d.a.row_mut(s).fill(0.0);
+                y[s] = 0.0;
+            }
+        }
+    }
     let g = d.a.tr_mul(&d.a) + &d.pen;
     let c = nalgebra::Cholesky::new(g)?;
     // Monotone shapes' heights projected as in every fit of the selection.
     let one = vec![0usize; lin.y.len()];
-    let beta = Solver::new(&d, &one, 1)?.coef(&lin.y);
+    let beta = Solver::new(&d, &one, 1)?.coef(&y);
     let inv = c.inverse();
     let mut aug = lin.base.clone();
     // Free parameters: columns were scaled to unit norm; recover the step per column.
