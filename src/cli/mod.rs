@@ -97,10 +97,28 @@ pub fn prepare_outputs(cmd: &Cmd) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// An error and its causes on one line, "outer: inner", each cause once: a library error
+/// whose own message already carries its source's text (so that it reads whole where it is
+/// printed alone) is not followed by that text again.
+pub fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
 /// Run the parsed command; the process exit code (0, or 2 after printing the error).
 pub fn main(cli: &Cli) -> i32 {
     if let Err(e) = prepare_outputs(&cli.cmd) {
-        eprintln!("magswarm: error: {e:#}");
+        eprintln!("magswarm: error: {}", error_line(&e));
         return 2;
     }
     let result = match &cli.cmd {
@@ -117,8 +135,44 @@ pub fn main(cli: &Cli) -> i32 {
     match result {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("magswarm: error: {e:#}");
+            eprintln!("magswarm: error: {}", error_line(&e));
             2
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_line;
+
+    #[derive(Debug)]
+    struct Inner;
+    impl std::fmt::Display for Inner {
+        fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("inner: 3 pairs")
+        }
+    }
+    impl std::error::Error for Inner {}
+
+    /// An error whose message carries its source's text, and which also returns it.
+    #[derive(Debug)]
+    struct Outer(Inner);
+    impl std::fmt::Display for Outer {
+        fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            write!(f, "log.csv: {}", self.0)
+        }
+    }
+    impl std::error::Error for Outer {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn a_cause_already_in_its_outer_message_is_not_repeated() {
+        let e = anyhow::Error::new(Outer(Inner)).context("diagnose");
+        assert_eq!(error_line(&e), "diagnose: log.csv: inner: 3 pairs");
+        let plain = anyhow::anyhow!("alone");
+        assert_eq!(error_line(&plain), "alone");
     }
 }

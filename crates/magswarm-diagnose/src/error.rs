@@ -60,11 +60,8 @@ pub enum DiagnoseError {
         /// Visits needed.
         need: usize,
     },
-    // The source's text is not repeated in the messages of the variants that carry one: the
-    // program prints the chain ("outer: inner"), and a message that also held its source's
-    // text said everything twice.
     /// Too little data to estimate the visit-to-visit noise.
-    #[error("{source_name}")]
+    #[error("{source_name}: {source}")]
     Noise {
         /// The log.
         source_name: String,
@@ -73,10 +70,10 @@ pub enum DiagnoseError {
         source: super::noise::TooFew,
     },
     /// The baseline could not be identified.
-    #[error("fitting the baseline (identify)")]
+    #[error("fitting the baseline (identify): {0}")]
     Baseline(#[source] magswarm_identify::IdentifyError),
     /// A session could not be replayed through the baseline.
-    #[error("replaying session {session} through the baseline")]
+    #[error("replaying session {session} through the baseline: {source}")]
     Replay {
         /// The session.
         session: String,

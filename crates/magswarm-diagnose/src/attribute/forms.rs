@@ -23,9 +23,6 @@ pub(super) fn choose_forms(
     // The last library fit (free parameters and library forms fitted together).
     let mut last_lib: Option<Augmented> = None;
     let one = vec![0usize; lin.y.len()];
-    // The library form and the learned shape are judged on operating points their fits
-    // never saw.
-    let pfolds = Folds::of_points(lin, st.seed);
     for (name, vs) in named {
         let vs = &prune_axes(lin, &design, vs);
         let before = Solver::new(&design, &lin.fold_of_stacked, lin.k);
@@ -106,56 +103,41 @@ pub(super) fn choose_forms(
             None => col,
         };
         let param_design = design.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
-        // The library form's withheld gain: each fold refitted by the nonlinear fitter (its
-        // location and shape included, from the full fit), against the current design's
-        // withheld residual. (A column from the full fit with a free amplitude would know
-        // the withheld visits through the fitted location.)
-        let cv_sse = |m: &Augmented, starts: &[Vec<f64>]| {
-            sse_rows(lin, &library_cv_from(lin, m, starts, &pfolds))
-        };
-        // The library form's withheld SS: each fold refitted by the nonlinear fitter. A form
-        // with a location (a step-out frequency, an onset distance) finds it on each fold's
-        // own rows; the others (time scales, rates: global, and costly to search per fold
-        // for a transient) refit locally from the full fit.
+        // The library form's withheld gain: each fold refitted by the nonlinear fitter, held
+        // near the baseline by the anchor as every per-fold refit is (a column from the full
+        // fit with a free amplitude would know the withheld visits through the fitted
+        // location), against the same refits without it. A form with a location (a step-out
+        // frequency, an onset distance) finds it on each fold's own rows; the others (time
+        // scales, rates: global, and costly to search per fold for a transient) refit
+        // locally from the full fit.
+        let cv_sse =
+            |m: &Augmented, starts: &[Vec<f64>]| sse_rows(lin, &library_cv_from(lin, m, starts));
         let located = name
             .fit_params(lin.ctx)
             .iter()
             .any(|p| p.location.is_some());
-        let e0 = cv_sse(&without, &[]);
-        let e1 = (before.is_some() && col.norm() > 1e-9).then(|| {
-            if located {
+        let g_param = if before.is_some() && col.norm() > 1e-9 {
+            let e0 = cv_sse(&without, &[]);
+            let e1 = if located {
                 cv_sse(&start, &starts)
             } else {
                 cv_sse(&fr.aug, &[])
-            }
-        });
-        let g_param = e1.map_or(f64::NEG_INFINITY, |e1| {
+            };
+            log::debug!(
+                "{}: withheld SS of the library form {e1:?}, {e0:?} without it",
+                name.name()
+            );
             0.5 * (e0[0] - e1[0] + e0[1] - e1[1])
-        });
-        // The learned shape's withheld SS through the same pipeline as the model file it
-        // would be written in: per fold, its heights (and the learned shapes named before it)
-        // from the linear fit of that fold's rows, then the free parameters and the library
-        // forms named before it refitted by the nonlinear fitter with the heights held. The
-        // two forms are judged by one yardstick, what users would run.
-        let el = is_shape.then(|| {
-            let mut all = learned.clone();
-            for v in vs {
-                if let Variant::Shape(f) = v {
-                    all.push((*name, f.clone()));
-                }
-            }
-            let cv = learned_cv(lin, &all, last_lib.as_ref(), &pfolds);
-            sse_rows(lin, &cv)
-        });
-        let g_learned_nl = el.map_or(f64::NEG_INFINITY, |el| {
-            0.5 * (e0[0] - el[0] + e0[1] - el[1])
-        });
+        } else {
+            f64::NEG_INFINITY
+        };
         log::debug!(
-            "{}: withheld SS without it {e0:?}, library form {e1:?}, learned shape {el:?}; linear gain of the learned shape {g_learned_model:.1} (model directions) / {g_learned:.1}",
+            "{}: withheld gain of the library form {g_param:.1}, of the learned shape {g_learned_model:.1} (model directions) / {g_learned:.1}",
             name.name()
         );
         // The library form where it gains at least 90 % of what the learned shape gains.
-        let use_learned = is_shape && g_learned_nl.is_finite() && g_param < 0.9 * g_learned_nl;
+        let use_learned =
+            is_shape && g_learned_model.is_finite() && g_param < 0.9 * g_learned_model;
         let learned_pred = shape_design
             .as_ref()
             .filter(|_| is_shape)
@@ -188,7 +170,7 @@ pub(super) fn choose_forms(
             design = shape_design.expect("shape design");
             model_d = shape_model_d.expect("shape design");
             if let Some(e) = e {
-                e.form_gains = Some((g_param, g_learned_nl));
+                e.form_gains = Some((g_param, g_learned_model));
             }
         } else {
             parametric.push(*name);
@@ -197,7 +179,7 @@ pub(super) fn choose_forms(
             design = param_design;
             model_d = model_d.extend(&col, &(DMatrix::identity(1, 1) * 1e-8));
             if let Some(e) = e {
-                e.form_gains = Some((g_param, g_learned_nl));
+                e.form_gains = Some((g_param, g_learned_model));
             }
         }
         let _ = st;
@@ -219,56 +201,20 @@ pub(super) fn choose_forms(
 /// Withheld predictions of a fitted augmented model: each fold refitted on the other folds'
 /// rows by the nonlinear fitter, from the full fit.
 pub(super) fn library_cv(lin: &Linear, full: &Augmented) -> Vec<[f64; 2]> {
-    library_cv_from(lin, full, &[], &Folds::of_visits(lin))
-}
-
-/// A fold of every row.
-pub(super) struct Folds {
-    of_row: Vec<usize>,
-    k: usize,
-}
-
-impl Folds {
-    /// The selection's folds: grouped by visit.
-    fn of_visits(lin: &Linear) -> Folds {
-        Folds {
-            of_row: (0..lin.ds.rows.len())
-                .map(|i| lin.fold_of_stacked[2 * i])
-                .collect(),
-            k: lin.k,
-        }
-    }
-
-    /// Folds grouped by operating point: every visit of a point withheld together, so that
-    /// a fold's model predicts operating points it never saw, as a withheld log at other
-    /// points asks of the written model (where points are revisited, folds by visit test
-    /// only a return to a point already fitted, and favour a shape that is right at the
-    /// measured points over a form that is right between them).
-    fn of_points(lin: &Linear, seed: u64) -> Folds {
-        let np = lin.ds.points.len();
-        let k = lin.k.min(np).max(2);
-        let fp = folds(np, k, seed ^ 0x9017);
-        Folds {
-            of_row: lin.ds.rows.iter().map(|r| fp[r.point]).collect(),
-            k,
-        }
-    }
+    library_cv_from(lin, full, &[])
 }
 
 /// Withheld predictions of a model refitted per fold by the nonlinear fitter from `start`,
 /// with `starts` for its last effect's multi-start search (empty: a local refit from `start`).
 /// With starts, every fold finds the effect's location on its own training rows: a refit
 /// from the full fit would start where all rows put it, the withheld ones included.
-fn library_cv_from(
-    lin: &Linear,
-    start: &Augmented,
-    starts: &[Vec<f64>],
-    folds: &Folds,
-) -> Vec<[f64; 2]> {
+fn library_cv_from(lin: &Linear, start: &Augmented, starts: &[Vec<f64>]) -> Vec<[f64; 2]> {
     let ds = lin.ds;
     let mut cv = vec![[0.0; 2]; ds.rows.len()];
-    let fold_of_row = &folds.of_row;
-    for f in 0..folds.k {
+    let fold_of_row: Vec<usize> = (0..ds.rows.len())
+        .map(|i| lin.fold_of_stacked[2 * i])
+        .collect();
+    for f in 0..lin.k {
         let train: Vec<usize> = (0..ds.rows.len())
             .filter(|&i| fold_of_row[i] != f)
             .collect();
@@ -348,40 +294,6 @@ fn sse_rows(lin: &Linear, p: &[[f64; 2]]) -> [f64; 2] {
             1e3
         }
     }))
-}
-
-/// Withheld predictions of the model file that the learned shapes `learned` (with the library
-/// forms of `lib`, if any) would make: per fold, the heights from the linear fit of the fold's
-/// rows, then the free parameters (and library forms) refitted by the nonlinear fitter with
-/// the heights held, as [`choose_forms`] writes the final model.
-fn learned_cv(
-    lin: &Linear,
-    learned: &[(EffectKind, Family)],
-    lib: Option<&Augmented>,
-    folds: &Folds,
-) -> Vec<[f64; 2]> {
-    let ds = lin.ds;
-    let n = ds.rows.len();
-    let mut cv = lin.p0.clone();
-    let fold_of_row = &folds.of_row;
-    for f in 0..folds.k {
-        let train: Vec<usize> = (0..n).filter(|&i| fold_of_row[i] != f).collect();
-        if train.len() == n {
-            continue;
-        }
-        let keep: Vec<bool> = (0..2 * n).map(|s| fold_of_row[s / 2] != f).collect();
-        let Some(aug) = linear_model_on(lin, learned, Some(&keep)) else {
-            continue;
-        };
-        let aug = written(lin, aug, lib, &train, Some(&lin.anchor));
-        let p = candidates::predict(&aug, ds);
-        for i in 0..n {
-            if fold_of_row[i] == f {
-                cv[i] = p[i];
-            }
-        }
-    }
-    cv
 }
 
 /// The model file written from a linear fit `aug` (learned heights and the free parameters

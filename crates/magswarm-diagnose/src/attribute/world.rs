@@ -232,31 +232,12 @@ impl<'a> Linear<'a> {
 /// transient directions stay out: the model file has no parameter for them, so a learned
 /// shape must carry what they would take up.
 pub(super) fn linear_model(lin: &Linear, learned: &[(EffectKind, Family)]) -> Option<Augmented> {
-    linear_model_on(lin, learned, None)
-}
-
-/// [`linear_model`] fitted on the stacked rows `keep` marks (all where None): the model a
-/// fold's rows alone would write.
-pub(super) fn linear_model_on(
-    lin: &Linear,
-    learned: &[(EffectKind, Family)],
-    keep: Option<&[bool]>,
-) -> Option<Augmented> {
-    let mut d = lin.model_design(learned);
-    let mut y = lin.y.clone();
-    if let Some(keep) = keep {
-        for (s, &k) in keep.iter().enumerate() {
-            if !k {
-                d.a.row_mut(s).fill(0.0);
-                y[s] = 0.0;
-            }
-        }
-    }
+    let d = lin.model_design(learned);
     let g = d.a.tr_mul(&d.a) + &d.pen;
     let c = nalgebra::Cholesky::new(g)?;
     // Monotone shapes' heights projected as in every fit of the selection.
     let one = vec![0usize; lin.y.len()];
-    let beta = Solver::new(&d, &one, 1)?.coef(&y);
+    let beta = Solver::new(&d, &one, 1)?.coef(&lin.y);
     let inv = c.inverse();
     let mut aug = lin.base.clone();
     // Free parameters: columns were scaled to unit norm; recover the step per column.
