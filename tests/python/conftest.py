@@ -245,3 +245,28 @@ def step_schedule(segments, h=0.01):
 
 # A schedule inside the validated envelope (z_m 3.5-23.5 mm, f 1-10 Hz) with steps in both inputs.
 SCHEDULE_SEGMENTS = [(1.0, 8.5, 4.0), (1.0, 13.5, 4.0), (1.0, 13.5, 7.0), (1.0, 6.0, 2.0)]
+
+
+BLIND = REPO / "scripts" / "blind"
+
+
+def blind_script(name: str):
+    """A module of scripts/blind (the independent generators and their scorer), loaded by path."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"blind_{name}", BLIND / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def magswarm_exe_or_skip() -> pathlib.Path:
+    """The release `magswarm` ($MAGSWARM_BIN, default target/release/magswarm): skips without
+    it, fails under CI."""
+    exe = pathlib.Path(os.environ.get("MAGSWARM_BIN", REPO / "target" / "release" / "magswarm"))
+    if not exe.is_file():
+        msg = f"{exe} not built (cargo build --release)"
+        if os.environ.get("CI"):
+            pytest.fail(msg, pytrace=False)
+        pytest.skip(msg)
+    return exe

@@ -14,32 +14,15 @@ Needs target/release/magswarm (`cargo build --release`); skips without it, fails
 """
 from __future__ import annotations
 
-import importlib.util
-import os
-import pathlib
-
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-BLIND = REPO / "scripts" / "blind"
-
-
-def _load(name):
-    spec = importlib.util.spec_from_file_location(f"blind_{name}", BLIND / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+from conftest import blind_script, magswarm_exe_or_skip
 
 
 @pytest.fixture(scope="module")
 def blind(tmp_path_factory):
-    exe = pathlib.Path(os.environ.get("MAGSWARM_BIN", REPO / "target" / "release" / "magswarm"))
-    if not exe.is_file():
-        msg = f"{exe} not built (cargo build --release)"
-        if os.environ.get("CI"):
-            pytest.fail(msg, pytrace=False)
-        pytest.skip(msg)
-    gen, score = _load("gen_blind"), _load("score")
+    magswarm_exe_or_skip()
+    gen, score = blind_script("gen_blind"), blind_script("score")
     out = tmp_path_factory.mktemp("blind")
     truths = gen.generate(1, out, only={"null_single", "phase_band_single", "anomaly_3visits"})
     results = {}

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import pathlib
 import subprocess
 import zipfile
@@ -20,7 +19,8 @@ import zipfile
 import numpy as np
 import pytest
 
-from conftest import REPO, hz, mm
+from conftest import hz, mm
+from conftest import magswarm_exe_or_skip as magswarm_exe
 
 EFFECTS = {
     "phase_lag": {"f_so_hz": 6.0, "nu": 1.0, "spread": 0.3},
@@ -49,16 +49,6 @@ EFFECTS = {
 # (duration_s, z_mm, f_hz): rows every 0.5 s.
 SEGMENTS = [(6.0, 8.5, 4.0), (8.0, 20.5, 4.0), (8.0, 20.5, 8.5), (6.0, 6.0, 9.5), (6.0, 13.5, 2.0)]
 DT = 0.5
-
-
-def magswarm_exe() -> pathlib.Path:
-    exe = REPO / "target" / "release" / "magswarm"
-    if not exe.is_file():
-        msg = f"{exe} not built (cargo build --release)"
-        if os.environ.get("CI"):
-            pytest.fail(msg, pytrace=False)
-        pytest.skip(msg)
-    return exe
 
 
 @pytest.fixture(scope="module")
@@ -190,7 +180,10 @@ def test_diagnose_augmented_model_runs_in_the_fmu(model_description, unzipdir, v
     report = json.loads((out / "report.json").read_text())
     assert "cohesion_loss" in report["accepted"], report["accepted"]
     augmented = json.loads((out / "augmented.json").read_text())
-    assert set(augmented["effects"]) == set(report["accepted"])
+    # Each accepted effect is switched on, in its library form or as a learned term.
+    on = {k for k in augmented["effects"] if k != "learned"}
+    on |= {t["effect"] for t in augmented["effects"].get("learned", [])}
+    assert on == set(report["accepted"]), augmented["effects"]
     # The first 120 rows of the campaign (about a fifth of it) through both.
     with log.open() as fh:
         rows = [(float(r["t_s"]), float(r["z_m_mm"]), float(r["f_hz"])) for r in csv.DictReader(fh)][:120]

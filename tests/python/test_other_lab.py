@@ -15,35 +15,19 @@ Needs target/release/magswarm (`cargo build --release`); skips without it, fails
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-import os
-import pathlib
 import subprocess
 import sys
 
 import pytest
 
-REPO = pathlib.Path(__file__).resolve().parents[2]
-BLIND = REPO / "scripts" / "blind"
-
-
-def _load(name):
-    spec = importlib.util.spec_from_file_location(f"other_{name}", BLIND / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+from conftest import BLIND, blind_script, magswarm_exe_or_skip
 
 
 @pytest.fixture(scope="module")
 def other(tmp_path_factory):
-    exe = pathlib.Path(os.environ.get("MAGSWARM_BIN", REPO / "target" / "release" / "magswarm"))
-    if not exe.is_file():
-        msg = f"{exe} not built (cargo build --release)"
-        if os.environ.get("CI"):
-            pytest.fail(msg, pytrace=False)
-        pytest.skip(msg)
-    score = _load("score")
+    magswarm_exe_or_skip()
+    score = blind_script("score")
     results = {}
     for seed, kinds in ((103, "phase_reversal"), (101, "null,drift_slow_loss")):
         out = tmp_path_factory.mktemp(f"other{seed}")

@@ -222,15 +222,25 @@ pub(super) fn columns_of(v: &Variant, rc: &RowCtx) -> Option<Design> {
     }
 }
 
+/// The strongest box among `boxes` of the in-sample residual `e0` (weighted, stacked), per
+/// radius, against the visit noise that residual shows.
+fn strongest(
+    lin: &Linear,
+    e0: &DVector<f64>,
+    boxes: detect::Boxes,
+) -> (f64, usize, (usize, usize), (usize, usize)) {
+    let r0 = detect::unweight(e0, lin.rc.w);
+    let sd = noise::Roughness::new(lin.ds)
+        .visit_sd(&r0)
+        .unwrap_or(lin.noise.visit);
+    detect::box_scan(lin.ds, &r0, sd, boxes, false)
+}
+
 /// The indicator columns (one per axis) of the strongest small box of the in-sample
 /// residual `e0` (weighted, stacked).
 pub(super) fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
     let ds = lin.ds;
-    let r0 = detect::unweight(e0, lin.rc.w);
-    let sd = noise::Roughness::new(ds)
-        .visit_sd(&r0)
-        .unwrap_or(lin.noise.visit);
-    let (_, _, zr, fr) = detect::box_scan(ds, &r0, sd, detect::Boxes::Local, false);
+    let (_, _, zr, fr) = strongest(lin, e0, detect::Boxes::Local);
     let (cell, _, _) = noise::cells(ds);
     let n = ds.rows.len();
     let mut a = DMatrix::zeros(2 * n, 2);
@@ -251,11 +261,7 @@ pub(super) fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>,
 /// without a band (fewer than two frequency levels).
 pub(super) fn band_family(lin: &Linear, e0: &DVector<f64>) -> Option<Family> {
     let ds = lin.ds;
-    let r0 = detect::unweight(e0, lin.rc.w);
-    let sd = noise::Roughness::new(ds)
-        .visit_sd(&r0)
-        .unwrap_or(lin.noise.visit);
-    let (stat, _, _, fr) = detect::box_scan(ds, &r0, sd, detect::Boxes::BandsF, false);
+    let (stat, _, _, fr) = strongest(lin, e0, detect::Boxes::BandsF);
     if stat <= 0.0 {
         return None;
     }
