@@ -45,6 +45,11 @@ pub struct InputTerms {
     de0: [f64; 2],
     /// d K_b,i / d(z_m, omega) (zero for constant gains).
     dk_b: [[f64; 2]; 2],
+    /// The Jacobian parts (`steady.ds`, `steady.jac`, the field's z-derivatives but
+    /// `db_dz`, `de0`, `dk_b`) were computed. Always true for terms made outside this
+    /// crate; a [`crate::Plant`] keeps terms without them and computes them when asked
+    /// ([`InputTerms::with_jacobian`]).
+    jacobian: bool,
     /// Which computation these terms came from (see [`TermsId`]).
     id: TermsId,
 }
@@ -102,12 +107,90 @@ impl InputTerms {
     /// As [`InputTerms::new`], with the steady map from `map` (a [`MapTable`] built for
     /// `model`: within its proven bound of the exact map) when given.
     pub fn with_map(model: &Model, z_m: f64, omega: f64, map: Option<&MapTable>) -> InputTerms {
+        Self::build::<true>(model, z_m, omega, map)
+    }
+
+    /// [`InputTerms::with_map`] without the Jacobian parts, written into `out`: the same
+    /// coefficients of (4), bit for bit (the same expressions), for about two thirds of the
+    /// work (the map table's slopes, the field's z-derivatives, the chain rule through
+    /// (5)-(7), the scheduled gains' derivatives: a dozen divisions among them), built where
+    /// the plant keeps them (no copy). What stepping (4) needs; the Jacobian is computed
+    /// when asked ([`InputTerms::with_jacobian`]). With an effect that acts on the map, the
+    /// full terms (its rates read the Jacobian parts).
+    pub(crate) fn values_into(
+        out: &mut InputTerms,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+    ) {
+        if crate::maptable::tabulable(model) {
+            Self::build_into::<false>(out, model, z_m, omega, map)
+        } else {
+            Self::build_into::<true>(out, model, z_m, omega, map)
+        }
+    }
+
+    /// [`InputTerms::values_into`] as a value.
+    pub(crate) fn values_with_map(
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+    ) -> InputTerms {
+        let mut t = InputTerms::default();
+        Self::values_into(&mut t, model, z_m, omega, map);
+        t
+    }
+
+    /// Whether the Jacobian parts are here (see [`InputTerms::with_jacobian`]).
+    pub fn has_jacobian(&self) -> bool {
+        self.jacobian
+    }
+
+    /// These terms with their Jacobian parts: a copy if they have them, else the full
+    /// computation at the same inputs with the same `map` (the one these terms were made
+    /// with), whose values are these bit for bit and whose Jacobian is the one
+    /// [`InputTerms::with_map`] gives. Keeps the id (the same coefficients of (4)).
+    pub(crate) fn with_jacobian(&self, model: &Model, map: Option<&MapTable>) -> InputTerms {
+        if self.jacobian {
+            return *self;
+        }
+        let mut t = Self::with_map(model, self.z_m, self.omega, map);
+        t.id = self.id;
+        t
+    }
+
+    /// The terms, with the Jacobian parts only `WITH_JACOBIAN` (the values are the same
+    /// expressions either way).
+    fn build<const WITH_JACOBIAN: bool>(
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+    ) -> InputTerms {
+        let mut t = InputTerms::default();
+        Self::build_into::<WITH_JACOBIAN>(&mut t, model, z_m, omega, map);
+        t
+    }
+
+    /// [`InputTerms::build`] into `t` (every field written).
+    #[inline(always)]
+    fn build_into<const WITH_JACOBIAN: bool>(
+        t: &mut InputTerms,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+    ) {
         let d = &model.dynamics;
-        let sp = match map {
-            Some(t) => t.evaluate(model, z_m, omega),
-            None => steady::evaluate(model, z_m, omega),
-        };
-        let (w, dw) = steady::norm_freq(model, omega);
+        match map {
+            Some(m) => m.evaluate_into::<WITH_JACOBIAN>(model, z_m, omega, &mut t.steady),
+            None if WITH_JACOBIAN => t.steady = steady::evaluate(model, z_m, omega),
+            None => t.steady = steady::evaluate_values(model, z_m, omega),
+        }
+        let sp = &t.steady;
+        let (w, dw) = steady::norm_freq_with::<WITH_JACOBIAN>(model, omega);
         // The swarm's rotation rate (|omega| unless the phase_lag effect makes it step out).
         let (w, dw, dw_dz) = steady::swarm_rate(model, w, dw, &sp.field);
         let wp = if w > 0.0 {
@@ -115,33 +198,34 @@ impl InputTerms {
         } else {
             0.0
         };
-        let dwp = if w > 0.0 { d.p * wp / w * dw } else { 0.0 };
         let e0 = d.K_tau * wp * d.s_B * sp.field.b;
-        let mut de0 = [
-            d.K_tau * wp * d.s_B * sp.field.db_dz,
-            d.K_tau * dwp * d.s_B * sp.field.b,
-        ];
-        if dw_dz != 0.0 && w > 0.0 {
-            de0[0] += d.K_tau * d.p * wp / w * dw_dz * d.s_B * sp.field.b;
+        let mut de0 = [0.0; 2];
+        if WITH_JACOBIAN {
+            let dwp = if w > 0.0 { d.p * wp / w * dw } else { 0.0 };
+            de0 = [
+                d.K_tau * wp * d.s_B * sp.field.db_dz,
+                d.K_tau * dwp * d.s_B * sp.field.b,
+            ];
+            if dw_dz != 0.0 && w > 0.0 {
+                de0[0] += d.K_tau * d.p * wp / w * dw_dz * d.s_B * sp.field.b;
+            }
         }
-        let mut terms = InputTerms {
-            z_m,
-            omega,
-            steady: sp,
-            e0,
-            k_b: [d.K_b1, d.K_b2],
-            de0,
-            dk_b: [[0.0; 2]; 2],
-            id: TermsId::fresh(),
-        };
+        t.z_m = z_m;
+        t.omega = omega;
+        t.e0 = e0;
+        t.k_b = [d.K_b1, d.K_b2];
+        t.de0 = de0;
+        t.dk_b = [[0.0; 2]; 2];
+        t.jacobian = WITH_JACOBIAN;
+        t.id = TermsId::fresh();
         if d.confinement == crate::params::Confinement::Scheduled {
-            terms.schedule(model);
+            t.schedule::<WITH_JACOBIAN>(model);
         }
-        terms
     }
 
-    /// Set K_b,i so that (r1*, r2*) of the map is an equilibrium, with its derivatives.
-    fn schedule(&mut self, model: &Model) {
+    /// Set K_b,i so that (r1*, r2*) of the map is an equilibrium, with its derivatives
+    /// (only `WITH_JACOBIAN`).
+    fn schedule<const WITH_JACOBIAN: bool>(&mut self, model: &Model) {
         let d = &model.dynamics;
         let sp = self.steady;
         let rs = [sp.r1, sp.r2];
@@ -165,6 +249,9 @@ impl InputTerms {
                 continue;
             }
             self.k_b[i] = kb;
+            if !WITH_JACOBIAN {
+                continue;
+            }
             // The derivatives only feed Jacobians: one division for both (the gain itself
             // stays an exact quotient, it drives the trajectory).
             let inv_den = 1.0 / den;
@@ -242,6 +329,7 @@ impl InputTerms {
 
     /// Jacobian of (4) with respect to the inputs, d f_i / d(z_m \[m\], omega [rad/s]).
     pub fn jac_input(&self, model: &Model, r: [f64; 2]) -> [[f64; 2]; 2] {
+        debug_assert!(self.jacobian, "jac_input of terms without their Jacobian");
         let d = &model.dynamics;
         let s = self.s();
         let gaps = [r[0] - d.r1_min, r[1] - d.r2_min];

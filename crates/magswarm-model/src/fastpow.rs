@@ -176,7 +176,16 @@ pub fn table(e: f64) -> Option<&'static PowTable> {
 /// applies).
 #[inline]
 pub fn pow(x: f64, e: f64) -> f64 {
-    match table(e) {
+    pow_by(table(e), x, e)
+}
+
+/// [`pow`] with the table of `e` looked up beforehand (`table(e)`, kept by a caller that
+/// raises many numbers to the same exponent): the same value, without the lookup. A
+/// lookup's answer never changes (a slot, once taken, keeps its exponent), so keeping it
+/// is exact.
+#[inline]
+pub fn pow_by(table: Option<&PowTable>, x: f64, e: f64) -> f64 {
+    match table {
         Some(t) => t.pow(x),
         None => x.powf(e),
     }

@@ -57,7 +57,13 @@ impl Model {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plant {
     model: Model,
+    /// The coefficients of (4) at the inputs, without their Jacobian parts (what stepping
+    /// needs: [`InputTerms::values_with_map`]).
     terms: InputTerms,
+    /// The same terms with their Jacobian, computed the first time something asks for it
+    /// at these inputs ([`Plant::outputs`], the Jacobians; a cache, emptied whenever
+    /// `terms` changes).
+    full: FullTerms,
     /// Radii (r1, r2) [mm]: the state of ODE (4).
     r: [f64; 2],
     /// Simulation time [s].
@@ -77,6 +83,23 @@ pub struct Plant {
     map: MapSlot,
 }
 
+/// [`Plant::terms`] with their Jacobian parts, once asked for (see `Plant::full`). A cache
+/// of a deterministic function of the plant's inputs, model and map: equality ignores it.
+#[derive(Clone, Default)]
+struct FullTerms(std::cell::OnceCell<InputTerms>);
+
+impl PartialEq for FullTerms {
+    fn eq(&self, _: &FullTerms) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for FullTerms {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "FullTerms {{ computed: {} }}", self.0.get().is_some())
+    }
+}
+
 /// The plant's [`MapTable`], shared between clones. Whether a plant uses one is part of its
 /// state (it decides the input terms, within the table's bound); the table itself is a
 /// deterministic function of the model, so equality ignores it.
@@ -88,6 +111,14 @@ struct MapSlot {
     pending: u32,
     /// Built for, or adopted from a plant of, the current model; read only while `wanted`.
     table: Option<Arc<MapTable>>,
+}
+
+impl MapSlot {
+    /// The table in force for the input terms.
+    #[inline]
+    fn in_force(&self) -> Option<&MapTable> {
+        self.table.as_deref().filter(|_| self.wanted)
+    }
 }
 
 impl PartialEq for MapSlot {
@@ -157,12 +188,13 @@ pub struct PlantOutputs {
 impl Plant {
     /// A plant at rest on the steady map of the given inputs (z_m \[m\], omega [rad/s]).
     pub fn new(model: Model, z_m: f64, omega: f64) -> Plant {
-        let terms = InputTerms::new(&model, z_m, omega);
+        let terms = InputTerms::values_with_map(&model, z_m, omega, None);
         let r = terms.steady.radii();
         let plain = model.effects.is_empty();
         Plant {
             model,
             terms,
+            full: FullTerms::default(),
             r,
             t: 0.0,
             stepper: Stepper::default(),
@@ -210,7 +242,7 @@ impl Plant {
 
     /// The table in force for the input terms.
     fn map_in_force(&self) -> Option<&MapTable> {
-        self.map.table.as_deref().filter(|_| self.map.wanted)
+        self.map.in_force()
     }
 
     /// Make the table match the wish and the model, and recompute the input terms.
@@ -225,12 +257,23 @@ impl Plant {
         } else {
             MapTable::shared(&self.model)
         };
-        self.terms = InputTerms::with_map(
+        let (z_m, omega) = (self.terms.z_m, self.terms.omega);
+        InputTerms::values_into(
+            &mut self.terms,
             &self.model,
-            self.terms.z_m,
-            self.terms.omega,
-            self.map_in_force(),
+            z_m,
+            omega,
+            self.map.in_force(),
         );
+        self.full = FullTerms::default();
+    }
+
+    /// The input terms with their Jacobian parts (computed now if nothing asked for them
+    /// since the inputs last changed; their values are `self.terms` bit for bit).
+    fn full_terms(&self) -> &InputTerms {
+        self.full
+            .0
+            .get_or_init(|| self.terms.with_jacobian(&self.model, self.map_in_force()))
     }
 
     /// Replace the model, keeping the state, the time and the inputs (the coefficients of
@@ -281,14 +324,15 @@ impl Plant {
                 self.refresh_map(None);
             }
         }
+        self.full = FullTerms::default();
         let fx = &self.model.effects;
-        let map = self.map_in_force();
+        let map = self.map.in_force();
         if !fx.tracks_changes() {
-            self.terms = InputTerms::with_map(&self.model, z_m, omega, map);
+            InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map);
             return;
         }
         let before = self.terms.steady;
-        self.terms = InputTerms::with_map(&self.model, z_m, omega, map);
+        InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map);
         // The step of the observed steady map this change makes, for the learned terms over
         // the time since it.
         let fx = &self.model.effects;
@@ -387,7 +431,7 @@ impl Plant {
         }
         if let Some(fl) = &self.model.effects.formation_lag {
             let wn = 1.0 / fl.tau_s;
-            let jac = self.terms.steady.jac;
+            let jac = self.full_terms().steady.jac;
             for axis in 0..2 {
                 let (x, v) = (2 + 2 * axis, 3 + 2 * axis);
                 // dx/dt = v
@@ -422,9 +466,10 @@ impl Plant {
         &mut self.tol
     }
 
-    /// The coefficients of (4) at the current inputs.
+    /// The coefficients of (4) at the current inputs, with their Jacobian parts (computed
+    /// on the first call after an input change).
     pub fn terms(&self) -> &InputTerms {
-        &self.terms
+        self.full_terms()
     }
 
     /// The plant's state without its model (see [`PlantSnapshot`]).
@@ -577,8 +622,18 @@ impl Plant {
         if self.plain {
             return self.r;
         }
-        let o = self.outputs();
-        [o.r1, o.r2]
+        self.observe_radii()
+    }
+
+    /// The radii with every enabled effect applied (the radii of [`Plant::outputs`]).
+    fn observe_radii(&self) -> [f64; 2] {
+        let fx = &self.model.effects;
+        let mut r = fx.observe(self.footprint(), self.t);
+        if fx.tracks_changes() {
+            let c = fx.since_change(self.t - self.change[0], [self.change[1], self.change[2]]);
+            r = [r[0] + c[0], r[1] + c[1]];
+        }
+        r
     }
 
     /// Whether every number of [`Plant::outputs`] that an FMU reports (radii, steady radii,
@@ -608,29 +663,32 @@ impl Plant {
         if self.plain {
             return probe(self.r, &self.terms.steady);
         }
-        let o = self.outputs();
-        probe([o.r1, o.r2], &o.steady)
+        // The values of the observed steady point do not read its Jacobian.
+        let observed = self
+            .model
+            .effects
+            .observe_steady(&self.terms.steady, self.t);
+        probe(self.observe_radii(), &observed)
     }
 
-    /// Outputs at the current instant (every enabled effect applied).
+    /// Outputs at the current instant (every enabled effect applied). The steady point's
+    /// Jacobian is computed on the first call after an input change (callers that want the
+    /// radii alone: [`Plant::observed_radii`]).
     pub fn outputs(&self) -> PlantOutputs {
         let fx = &self.model.effects;
+        let steady = &self.full_terms().steady;
         if self.plain {
             return PlantOutputs {
                 r1: self.r[0],
                 r2: self.r[1],
-                steady: self.terms.steady,
+                steady: *steady,
             };
         }
-        let mut r = fx.observe(self.footprint(), self.t);
-        if fx.tracks_changes() {
-            let c = fx.since_change(self.t - self.change[0], [self.change[1], self.change[2]]);
-            r = [r[0] + c[0], r[1] + c[1]];
-        }
+        let r = self.observe_radii();
         PlantOutputs {
             r1: r[0],
             r2: r[1],
-            steady: fx.observe_steady(&self.terms.steady, self.t),
+            steady: fx.observe_steady(steady, self.t),
         }
     }
 
@@ -646,13 +704,15 @@ impl Plant {
 
     /// d(dr/dt)/d(z_m, omega) at the current state.
     pub fn jac_input(&self) -> [[f64; 2]; 2] {
-        self.terms.jac_input(&self.model, self.r)
+        self.full_terms().jac_input(&self.model, self.r)
     }
 
     /// Smallest confinement gain allowed when scheduling (re-exported for reports).
     pub const KB_FLOOR: f64 = KB_FLOOR;
 }
 
+#[cfg(test)]
+mod lazy_jacobian_tests;
 #[cfg(test)]
 mod map_table_tests;
 #[cfg(test)]

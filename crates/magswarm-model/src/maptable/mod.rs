@@ -316,13 +316,18 @@ impl<const K: usize> Axis<K> {
 }
 
 impl<const K: usize> Cell<K> {
-    /// Values and derivatives (d/dx) of the K functions at x in this cell.
+    /// Values and derivatives (d/dx) of the K functions at x in this cell (the derivatives
+    /// only `WITH_JACOBIAN`, else 0; the values are the same expressions either way).
     #[inline]
-    fn eval(&self, x: f64) -> [(f64, f64); K] {
+    fn eval<const WITH_JACOBIAN: bool>(&self, x: f64) -> [(f64, f64); K] {
         let t = (x - self.lo) * self.inv_h;
         self.coef.map(|[f0, s0, c2, c3]| {
             let v = f0 + t * (s0 + t * (c2 + t * c3));
-            let d = (s0 + t * (2.0 * c2 + 3.0 * c3 * t)) * self.inv_h;
+            let d = if WITH_JACOBIAN {
+                (s0 + t * (2.0 * c2 + 3.0 * c3 * t)) * self.inv_h
+            } else {
+                0.0
+            };
             (v, d)
         })
     }
@@ -359,6 +364,8 @@ pub struct MapTable {
     model: Model,
     depth: Axis<3>,
     freq: Axis<2>,
+    /// `fastpow::table` of alpha_1 and alpha_2, looked up once (see [`crate::fastpow::pow_by`]).
+    alpha_pow: [Option<&'static crate::fastpow::PowTable>; 2],
 }
 
 /// Whether the map of `model` is the plain (5)-(7) that the tables hold: no effect acts on it.
@@ -390,11 +397,16 @@ impl MapTable {
         let f_ref = model.steady.f_ref;
         let (w_lo, w_hi) = (0.5 * e.f_min_hz.max(0.05) / f_ref, 2.0 * e.f_max_hz / f_ref);
         let freq = Axis::new(FREQ_BITS, w_lo, w_hi)?;
+        let p = &model.steady;
         Some(MapTable {
             key: Key::of(model),
             model: model.clone(),
             depth,
             freq,
+            alpha_pow: [
+                crate::fastpow::table(p.alpha_1),
+                crate::fastpow::table(p.alpha_2),
+            ],
         })
     }
 
@@ -458,29 +470,83 @@ impl MapTable {
             .unwrap_or_else(|| steady::evaluate(model, z_m, omega))
     }
 
+    /// [`MapTable::evaluate`] into `out`, with the Jacobian (`ds`, `jac` and the field's
+    /// z-derivatives but `db_dz`) only `WITH_JACOBIAN`, else left at 0: the same values bit
+    /// for bit (the same expressions; where the table does not answer,
+    /// [`steady::evaluate_values`]). Written in place: an input change builds the point where
+    /// the plant keeps it, without copying it.
+    #[inline]
+    pub(crate) fn evaluate_into<const WITH_JACOBIAN: bool>(
+        &self,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        out: &mut SteadyPoint,
+    ) {
+        if !self.interpolate_into::<WITH_JACOBIAN>(model, z_m, omega, out) {
+            *out = if WITH_JACOBIAN {
+                steady::evaluate(model, z_m, omega)
+            } else {
+                steady::evaluate_values(model, z_m, omega)
+            };
+        }
+    }
+
+    /// The map from the tables, with its Jacobian (`None` where they do not answer).
     fn interpolate(&self, model: &Model, z_m: f64, omega: f64) -> Option<SteadyPoint> {
+        let mut sp = SteadyPoint::default();
+        self.interpolate_into::<true>(model, z_m, omega, &mut sp)
+            .then_some(sp)
+    }
+
+    /// The map from the tables into `out`, with the Jacobian only `WITH_JACOBIAN` (the
+    /// values are the same expressions either way); false (and `out` untouched) where the
+    /// tables do not answer.
+    #[inline(always)]
+    fn interpolate_into<const WITH_JACOBIAN: bool>(
+        &self,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        out: &mut SteadyPoint,
+    ) -> bool {
         let p = &model.steady;
         let c = &model.conventions;
         let d = model.magnet.depth(z_m);
-        let (w, dw) = steady::norm_freq(model, omega);
-        let zc = &self.depth_cell(d)?.0;
-        let wc = &self.freq_cell(w)?.0;
-        let [(gx, dgx), (gy, dgy), (part, dpart)] = zc.eval(d);
-        let [(l, dl), (phi, dphi)] = wc.eval(w);
+        let (w, dw) = steady::norm_freq_with::<WITH_JACOBIAN>(model, omega);
+        let Some((zc, _)) = self.depth_cell(d) else {
+            return false;
+        };
+        let Some((wc, _)) = self.freq_cell(w) else {
+            return false;
+        };
+        let [(gx, dgx), (gy, dgy), (part, dpart)] = zc.eval::<WITH_JACOBIAN>(d);
+        let [(l, dl), (phi, dphi)] = wc.eval::<WITH_JACOBIAN>(w);
         let pl = part * l;
         let (s_x, s_y) = (gx + pl, gy + pl);
         // Near the floor the exact code decides (it flags the point).
         let near = c.s_floor * (1.0 + 1e-6);
         if !(s_x > near && s_y > near) {
-            return None;
+            return false;
         }
-        let dpl_dz = dpart * l;
-        let dpl_dw = part * dl * dw;
-        let ds = [[dgx + dpl_dz, dpl_dw], [dgy + dpl_dz, dpl_dw]];
-        let dlnphi_dw = dphi / phi * dw;
-        let ([r1, r2], jac) = steady::radii(p, [s_x, s_y], &ds, phi, dlnphi_dw);
-        Some(SteadyPoint {
-            field: model.magnet.at(z_m),
+        let (ds, dlnphi_dw) = if WITH_JACOBIAN {
+            let dpl_dz = dpart * l;
+            let dpl_dw = part * dl * dw;
+            (
+                [[dgx + dpl_dz, dpl_dw], [dgy + dpl_dz, dpl_dw]],
+                dphi / phi * dw,
+            )
+        } else {
+            ([[0.0; 2]; 2], 0.0)
+        };
+        let s_alpha = [
+            crate::fastpow::pow_by(self.alpha_pow[0], s_x, p.alpha_1),
+            crate::fastpow::pow_by(self.alpha_pow[1], s_y, p.alpha_2),
+        ];
+        let ([r1, r2], jac) =
+            steady::radii::<WITH_JACOBIAN>(p, s_alpha, [s_x, s_y], &ds, phi, dlnphi_dw);
+        *out = SteadyPoint {
+            field: model.magnet.at_with::<WITH_JACOBIAN>(z_m),
             s_x,
             s_y,
             phi,
@@ -489,7 +555,8 @@ impl MapTable {
             ds,
             jac,
             validity: model.envelope.classify(z_m, omega),
-        })
+        };
+        true
     }
 
     /// A proven bound on |r_i(table) - r_i(exact formula)| \[mm\] at an operating point, from
@@ -497,13 +564,16 @@ impl MapTable {
     /// G_i, P, L and Phi propagated through `r = C Phi S^-alpha` to first order, doubled
     /// for the second-order terms, plus 1e-13 relative for the final arithmetic.
     pub fn bound(&self, model: &Model, z_m: f64, omega: f64) -> Option<[f64; 2]> {
-        let sp = self.interpolate(model, z_m, omega)?;
+        let mut sp = SteadyPoint::default();
+        if !self.interpolate_into::<false>(model, z_m, omega, &mut sp) {
+            return None;
+        }
         let d = model.magnet.depth(z_m);
         let (w, _) = steady::norm_freq(model, omega);
         let (zc, zb) = self.depth_cell(d)?;
         let (wc, wb) = self.freq_cell(w)?;
-        let [_, _, (part, _)] = zc.eval(d);
-        let [(l, _), (phi, _)] = wc.eval(w);
+        let [_, _, (part, _)] = zc.eval::<false>(d);
+        let [(l, _), (phi, _)] = wc.eval::<false>(w);
         let (bz, bw) = (zb.value, wb.value);
         let ds_common = bz[2] * l.abs() + (part.abs() + bz[2]) * bw[0];
         let p = &model.steady;
