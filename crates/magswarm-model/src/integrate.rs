@@ -41,7 +41,8 @@ pub struct Stepper {
     pub steps: u64,
     /// Rejected internal steps in total.
     pub rejected: u64,
-    /// The last accepted step that left the state unchanged (a cache, not state).
+    /// The last accepted step that left the state unchanged, the last communication step if
+    /// it was nothing but those, and the last stage of the last step (caches, not state).
     pub rest: RestMemo,
 }
 
@@ -63,8 +64,25 @@ impl Default for Stepper {
 /// its inputs and its step-size factor, and `advance` replays it (same state, same step
 /// counts, same next step size; only the arithmetic is skipped). It is a cache: equality
 /// ignores it, snapshots do not carry it (a restored plant recomputes the step once).
+///
+/// It also keeps the last stage of the last accepted step ([`FirstStage`]): the first stage
+/// of the next communication step, when that starts where this one ended under the same
+/// right-hand side.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct RestMemo(Option<Rest>, Option<CommStep>);
+pub struct RestMemo(Option<Rest>, Option<CommStep>, Option<FirstStage>);
+
+/// f(y) at the state `y` (bits) a communication step ended in, under the right-hand side of
+/// the terms `id` ([`InputTerms::id`]): Dormand-Prince's last stage of an accepted step is
+/// the first stage of the next (first same as last), and a communication step that starts
+/// where the last one ended, under the same terms, takes it from here instead of
+/// evaluating f(y) again (the same function at the same point: the same bits). Keyed like
+/// [`CommStep`], by the terms' id.
+#[derive(Debug, Clone, Copy)]
+struct FirstStage {
+    id: u64,
+    y: [u64; 2],
+    k1: [f64; 2],
+}
 
 /// A whole communication step that was nothing but rest steps: from the state `y` and the
 /// step size `h_in` it left both unchanged but for the counts and the next step size. The
@@ -229,8 +247,12 @@ impl Stepper {
         let mut done = 0.0;
         let mut h = self.h_next.min(tol.h_max).min(h_comm);
         let key = terms.rhs_key(model);
-        // k1 = f(y), computed only when a step is actually evaluated.
-        let mut k1_slot: Option<[f64; 2]> = None;
+        // k1 = f(y), computed only when a step is actually evaluated (or kept from the last
+        // step, see `FirstStage`).
+        let mut k1_slot: Option<[f64; 2]> = match &self.rest.2 {
+            Some(f) if f.id == terms.id() && f.y == y.map(f64::to_bits) => Some(f.k1),
+            _ => None,
+        };
         let mut n = 0u32;
         while done < h_comm {
             let remaining = h_comm - done;
@@ -320,6 +342,13 @@ impl Stepper {
                 }
             }
         }
+        // Whatever k1 holds now is f at the state the step ended in (an accepted step's
+        // last stage, or f(y) of a state that did not move).
+        self.rest.2 = k1_slot.map(|k1| FirstStage {
+            id: terms.id(),
+            y: y.map(f64::to_bits),
+            k1,
+        });
         // A step of nothing but replayed rest steps is remembered whole (see `CommStep`).
         self.rest.1 =
             (all_rest && *y == y_in && self.rejected == rejected_in).then_some(CommStep {
