@@ -281,12 +281,27 @@ impl InputTerms {
     /// stages).
     #[inline(always)]
     pub fn rhs(&self, model: &Model, r: [f64; 2]) -> [f64; 2] {
+        let beta = model.dynamics.beta;
+        self.rhs_with(model, r, |gap| pow_int_or_real(gap, beta))
+    }
+
+    /// [`InputTerms::rhs`] with `(r - r_min)^beta` for a positive gap given as `pow` (the
+    /// integrator passes the cube written out when beta is 3: the same operations as
+    /// [`pow_int_or_real`], without choosing them on every evaluation).
+    #[inline(always)]
+    pub(crate) fn rhs_with(
+        &self,
+        model: &Model,
+        r: [f64; 2],
+        pow: impl Fn(f64) -> f64,
+    ) -> [f64; 2] {
         let d = &model.dynamics;
         let s = self.s();
         let e = self.e0 * r[0] * r[1];
+        let confine = |gap: f64| if gap > 0.0 { pow(gap) } else { 0.0 };
         [
-            -self.k_b[0] * s[0] * confine(r[0] - d.r1_min, d.beta) + e - d.K_d1 * r[0],
-            -self.k_b[1] * s[1] * confine(r[1] - d.r2_min, d.beta) + e - d.K_d2 * r[1],
+            -self.k_b[0] * s[0] * confine(r[0] - d.r1_min) + e - d.K_d1 * r[0],
+            -self.k_b[1] * s[1] * confine(r[1] - d.r2_min) + e - d.K_d2 * r[1],
         ]
     }
 
