@@ -192,6 +192,22 @@ impl MagSwarm {
 
     fn check_envelope(&mut self, ctx: &mut Ctx<'_>) {
         let v = self.model.envelope.classify(self.z_m, self.omega);
+        self.warn_envelope(ctx, v);
+    }
+
+    /// Warn once per excursion when the inputs (classified as `v` by the envelope) leave it,
+    /// say so (debug) when they come back.
+    #[inline]
+    fn warn_envelope(&mut self, ctx: &mut Ctx<'_>, v: magswarm_model::Validity) {
+        if v.extrapolating() != self.outside {
+            self.envelope_crossed(ctx, v);
+        }
+    }
+
+    /// The inputs left the envelope or came back ([`MagSwarm::warn_envelope`]).
+    #[cold]
+    #[inline(never)]
+    fn envelope_crossed(&mut self, ctx: &mut Ctx<'_>, v: magswarm_model::Validity) {
         if v.extrapolating() && !self.outside {
             let e = &self.model.envelope;
             ctx.warning(format!(
@@ -369,7 +385,10 @@ impl FmuModel for MagSwarm {
     fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
         let unchanged = [self.z_m.to_bits(), self.omega.to_bits()] == self.checked;
         if !unchanged {
-            self.check_envelope(ctx);
+            // The plant takes the new inputs and classifies them against the envelope (the
+            // classification `check_envelope` makes, without making it twice).
+            let v = self.plant().envelope_validity();
+            self.warn_envelope(ctx, v);
         }
         let plant = self.plant();
         // The plant's clock is the FMU's (time-dependent effects such as particle drift).

@@ -697,6 +697,29 @@ impl Plant {
         self.terms.steady.validity
     }
 
+    /// Where the inputs in force stand against the validated envelope: exactly
+    /// `model.envelope.classify(z_m, omega)` (the other flags false). Without effects the
+    /// steady map classified these very inputs first thing, so its flags are taken (no
+    /// second division); an effect may evaluate the map at other inputs (a slowed rotation),
+    /// so then they are classified here.
+    #[inline]
+    pub fn envelope_validity(&self) -> Validity {
+        if !self.plain {
+            return self
+                .model
+                .envelope
+                .classify(self.terms.z_m, self.terms.omega);
+        }
+        let v = self.terms.steady.validity;
+        Validity {
+            z_below: v.z_below,
+            z_above: v.z_above,
+            f_below: v.f_below,
+            f_above: v.f_above,
+            ..Validity::default()
+        }
+    }
+
     /// d(dr/dt)/dr at the current state [1/s].
     pub fn jac_state(&self) -> [[f64; 2]; 2] {
         self.terms.jac_state(&self.model, self.r)
