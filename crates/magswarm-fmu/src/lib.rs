@@ -345,6 +345,69 @@ impl MagSwarm {
     }
 }
 
+impl MagSwarm {
+    /// [`FmuModel::set_real`] of everything but an accepted input: the refusals of z_m and
+    /// omega_m (naming the rule) and the parameters.
+    #[cold]
+    #[inline(never)]
+    fn set_real_other(
+        &mut self,
+        _ctx: &mut Ctx<'_>,
+        vr: u32,
+        value: f64,
+    ) -> Result<(), ModelError> {
+        match vr {
+            vr::Z_M => {
+                // The model's rule: a z_m that puts the swarm inside the magnet is bad input.
+                self.model
+                    .check_z_m(value)
+                    .map_err(|e| ModelError::error(e.to_string()))?;
+                if value > MAX_Z_M {
+                    return Err(ModelError::error(format!(
+                        "z_m = {value:e} m is beyond {MAX_Z_M} m, where the field model has \
+                         nothing left to say (validated envelope {}-{} mm)",
+                        self.model.envelope.z_min_m * 1e3,
+                        self.model.envelope.z_max_m * 1e3
+                    )));
+                }
+                self.z_m = value
+            }
+            vr::OMEGA_M => {
+                if value.abs() > MAX_OMEGA {
+                    return Err(ModelError::error(format!(
+                        "omega_m = {value:e} rad/s is beyond +-{MAX_OMEGA} rad/s (validated \
+                         envelope {}-{} Hz)",
+                        self.model.envelope.f_min_hz, self.model.envelope.f_max_hz
+                    )));
+                }
+                self.omega = value
+            }
+            vr::R1_START => {
+                self.r_start[0] = value;
+                self.invalidate();
+            }
+            vr::R2_START => {
+                self.r_start[1] = value;
+                self.invalidate();
+            }
+            v if v >= vr::PARAM_BASE => {
+                let i = (v - vr::PARAM_BASE) as usize;
+                let p = PARAMS
+                    .get(i)
+                    .ok_or_else(|| ModelError::unknown_vr(magswarm_fmi::VarType::Real, v))?;
+                let mut m = self.model.clone();
+                (p.set)(&mut m, value);
+                m.validate()
+                    .map_err(|e| ModelError::error(format!("{}: {}", p.name, e.message)))?;
+                self.model = m;
+                self.invalidate();
+            }
+            other => return Err(ModelError::unknown_vr(magswarm_fmi::VarType::Real, other)),
+        }
+        Ok(())
+    }
+}
+
 impl FmuModel for MagSwarm {
     fn model_info() -> &'static ModelInfo {
         &INFO
@@ -505,54 +568,15 @@ impl FmuModel for MagSwarm {
         Ok(())
     }
 
-    fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
+    /// The inputs first, inline (a master sets them every step): an accepted z_m or
+    /// omega_m is stored here; a refused one, and every other variable, go to
+    /// [`MagSwarm::set_real_other`] with the same rules.
+    #[inline]
+    fn set_real(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
-            vr::Z_M => {
-                // The model's rule: a z_m that puts the swarm inside the magnet is bad input.
-                self.model
-                    .check_z_m(value)
-                    .map_err(|e| ModelError::error(e.to_string()))?;
-                if value > MAX_Z_M {
-                    return Err(ModelError::error(format!(
-                        "z_m = {value:e} m is beyond {MAX_Z_M} m, where the field model has \
-                         nothing left to say (validated envelope {}-{} mm)",
-                        self.model.envelope.z_min_m * 1e3,
-                        self.model.envelope.z_max_m * 1e3
-                    )));
-                }
-                self.z_m = value
-            }
-            vr::OMEGA_M => {
-                if value.abs() > MAX_OMEGA {
-                    return Err(ModelError::error(format!(
-                        "omega_m = {value:e} rad/s is beyond +-{MAX_OMEGA} rad/s (validated \
-                         envelope {}-{} Hz)",
-                        self.model.envelope.f_min_hz, self.model.envelope.f_max_hz
-                    )));
-                }
-                self.omega = value
-            }
-            vr::R1_START => {
-                self.r_start[0] = value;
-                self.invalidate();
-            }
-            vr::R2_START => {
-                self.r_start[1] = value;
-                self.invalidate();
-            }
-            v if v >= vr::PARAM_BASE => {
-                let i = (v - vr::PARAM_BASE) as usize;
-                let p = PARAMS
-                    .get(i)
-                    .ok_or_else(|| ModelError::unknown_vr(magswarm_fmi::VarType::Real, v))?;
-                let mut m = self.model.clone();
-                (p.set)(&mut m, value);
-                m.validate()
-                    .map_err(|e| ModelError::error(format!("{}: {}", p.name, e.message)))?;
-                self.model = m;
-                self.invalidate();
-            }
-            other => return Err(ModelError::unknown_vr(magswarm_fmi::VarType::Real, other)),
+            vr::Z_M if self.model.z_m_allowed(value) && !(value > MAX_Z_M) => self.z_m = value,
+            vr::OMEGA_M if !(value.abs() > MAX_OMEGA) => self.omega = value,
+            _ => return self.set_real_other(ctx, vr, value),
         }
         Ok(())
     }

@@ -23,22 +23,37 @@ impl Model {
     /// would cut through the magnet sphere, where no extrapolation means anything, so it is
     /// bad input (like NaN), not extrapolation. The message names z_m, the limit and the
     /// validated envelope.
+    #[inline]
     pub fn check_z_m(&self, z_m: f64) -> Result<(), InputError> {
+        if self.z_m_allowed(z_m) {
+            return Ok(());
+        }
+        Err(self.z_m_refused(z_m))
+    }
+
+    /// Whether [`Model::check_z_m`] accepts z_m (finite, the swarm plane outside the magnet),
+    /// as one test for callers on a hot path.
+    #[inline]
+    pub fn z_m_allowed(&self, z_m: f64) -> bool {
+        z_m > -self.magnet.z_offset_m && z_m.is_finite()
+    }
+
+    /// Why [`Model::check_z_m`] refuses z_m.
+    #[cold]
+    #[inline(never)]
+    fn z_m_refused(&self, z_m: f64) -> InputError {
         let floor = -self.magnet.z_offset_m;
         if z_m.is_nan() {
-            return Err(InputError(format!("z_m = {z_m} is not a number")));
+            return InputError(format!("z_m = {z_m} is not a number"));
         }
-        if z_m <= floor || !z_m.is_finite() {
-            return Err(InputError(format!(
-                "z_m = {:.3} mm would put the swarm inside the magnet (z_m must exceed \
-                 {:.3} mm; validated envelope {}-{} mm)",
-                z_m * 1e3,
-                floor * 1e3,
-                self.envelope.z_min_m * 1e3,
-                self.envelope.z_max_m * 1e3
-            )));
-        }
-        Ok(())
+        InputError(format!(
+            "z_m = {:.3} mm would put the swarm inside the magnet (z_m must exceed \
+             {:.3} mm; validated envelope {}-{} mm)",
+            z_m * 1e3,
+            floor * 1e3,
+            self.envelope.z_min_m * 1e3,
+            self.envelope.z_max_m * 1e3
+        ))
     }
 
     /// Inputs the model can evaluate: z_m by [`Model::check_z_m`], omega finite.
