@@ -243,7 +243,10 @@ impl MagSwarm {
     }
 
     /// After a step: every output finite, checking the input-dependent ones (and the
-    /// envelope) only when the inputs changed since the last check.
+    /// envelope) only when the inputs changed since the last check. The step makes these
+    /// tests inline and comes here when one fails, to name the output.
+    #[cold]
+    #[inline(never)]
     fn check_after_step(&mut self) -> Result<(), ModelError> {
         let now = [self.z_m.to_bits(), self.omega.to_bits()];
         if now != self.checked {
@@ -459,9 +462,18 @@ impl FmuModel for MagSwarm {
         if let Err(e) = plant.step(step) {
             return Err(self.step_error(e));
         }
-        // Same inputs as at the last check: only the radii moved (the common case, inline).
-        if unchanged && self.plant().observed_radii().iter().all(|r| r.is_finite()) {
-            return Ok(());
+        // Every output finite, inline: at the inputs of the last check only the radii moved;
+        // at new inputs every output is looked at and the inputs are marked checked.
+        // `check_after_step` makes the same tests and names what failed.
+        if let Some(plant) = &self.plant {
+            if unchanged {
+                if plant.observed_radii().iter().all(|r| r.is_finite()) {
+                    return Ok(());
+                }
+            } else if plant.outputs_finite() {
+                self.checked = [self.z_m.to_bits(), self.omega.to_bits()];
+                return Ok(());
+            }
         }
         self.check_after_step()
     }
@@ -552,7 +564,15 @@ impl FmuModel for MagSwarm {
     }
 
     fn get_reals(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), (u32, ModelError)> {
-        // A master reads r1 and r2 together: the plant is looked at once for both.
+        // A master reads r1 and r2 together: the plant is looked at once for both (and when
+        // they are all it reads, with no other case on the way).
+        if vrs.iter().all(|&vr| vr == vr::R1 || vr == vr::R2) {
+            let r = self.plant().observed_radii();
+            for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+                *o = r[(vr - vr::R1) as usize] * 1e-3;
+            }
+            return Ok(());
+        }
         let mut radii: Option<[f64; 2]> = None;
         for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
             *o = if vr == vr::R1 || vr == vr::R2 {
