@@ -264,6 +264,9 @@ struct State {
     u: [f64; 2],
     /// Feedforward ramp (z_m [m], omega [rad/s]).
     u_ff: [f64; 2],
+    /// `u_ff` in normalised units (`Scale::x_of`, kept with it rather than divided out
+    /// twice a sample).
+    x_ff: [f64; 2],
     /// Integral term, normalised input units.
     integ: [f64; 2],
     /// Filtered derivative signal [mm].
@@ -275,6 +278,8 @@ struct State {
     /// Setpoint the status below belongs to.
     setpoint: [f64; 2],
     status: Option<InverseResult>,
+    /// The status's feedforward target in normalised units (kept with it).
+    x_goal: [f64; 2],
     last: StepInfo,
     /// Gains in force before a [`Controller::set_gains`] not yet absorbed.
     gains_before: Option<Gains>,
@@ -372,12 +377,14 @@ impl Controller {
                 initialized: false,
                 u: [0.0; 2],
                 u_ff: [0.0; 2],
+                x_ff: scale.x_of([0.0; 2]),
                 integ: [0.0; 2],
                 d_filt: [0.0; 2],
                 r_pre: [0.0; 2],
                 model_plant: None,
                 setpoint: [f64::NAN; 2],
                 status: None,
+                x_goal: [0.0; 2],
                 last: StepInfo::default(),
                 gains_before: None,
                 decoupler: None,
@@ -411,6 +418,7 @@ impl Controller {
         st.initialized = true;
         st.u = u;
         st.u_ff = u;
+        st.x_ff = self.scale.x_of(u);
         st.integ = [0.0; 2];
         st.gains_before = None;
         st.decoupler = None;
@@ -459,6 +467,7 @@ impl Controller {
             initialized: s.initialized,
             u: s.u,
             u_ff: s.u_ff,
+            x_ff: self.scale.x_of(s.u_ff),
             integ: s.integ,
             d_filt: s.d_filt,
             r_pre: s.r_pre,
@@ -468,6 +477,9 @@ impl Controller {
                 .map(|p| Plant::from_snapshot(model.clone(), p)),
             setpoint: s.setpoint.unwrap_or([f64::NAN; 2]),
             status: s.status,
+            x_goal: s
+                .status
+                .map_or([0.0; 2], |st| self.scale.x_of([st.z_m, st.omega])),
             last: s.last,
             gains_before: s.gains_before,
             decoupler: None,
@@ -587,7 +599,9 @@ impl Controller {
                 bounds: Some(self.cfg.limits.envelope()),
                 ..InverseOptions::default()
             };
-            self.st.status = Some(inverse_with(&self.model, setpoint[0], setpoint[1], &opt));
+            let status = inverse_with(&self.model, setpoint[0], setpoint[1], &opt);
+            self.st.x_goal = self.scale.x_of([status.z_m, status.omega]);
+            self.st.status = Some(status);
             self.st.setpoint = setpoint;
         }
         let status = self.st.status.expect("set above");
@@ -607,8 +621,8 @@ impl Controller {
             let r_ref = p.state();
             // ...then the feedforward for this sample, ramped at the rate limits, and the
             // model advanced under it for the next sample.
-            let x_ff = self.scale.x_of(self.st.u_ff);
-            let x_goal = self.scale.x_of(u_goal);
+            let x_ff = self.st.x_ff;
+            let x_goal = self.st.x_goal;
             // A straight line in normalised inputs, both inputs arriving together, at the
             // speed of the axis with the longer way to go.
             let d = [x_goal[0] - x_ff[0], x_goal[1] - x_ff[1]];
@@ -620,6 +634,7 @@ impl Controller {
             }
             let x_new = [x_ff[0] + k * d[0], x_ff[1] + k * d[1]];
             self.st.u_ff = self.scale.u_of(x_new);
+            self.st.x_ff = self.scale.x_of(self.st.u_ff);
             p.set_inputs(self.st.u_ff[0], self.st.u_ff[1]);
             if p.step(ts).is_err() {
                 // Never expected inside the envelope; fall back to the map.
@@ -668,7 +683,7 @@ impl Controller {
         }
         let v = [g.kp[0] * e[0] + dterm[0], g.kp[1] * e[1] + dterm[1]];
         let dv = mat2::mul_v(&jinv, v);
-        let x_ff = self.scale.x_of(self.st.u_ff);
+        let x_ff = self.st.x_ff;
         let x_des = [
             x_ff[0] + dv[0] + self.st.integ[0],
             x_ff[1] + dv[1] + self.st.integ[1],

@@ -329,14 +329,19 @@ impl FmuSlave {
 
     // ------------------------------------------------------------------------- values
 
+    #[inline]
     fn same_len(a: usize, b: usize) -> Result<()> {
         if a == b {
             Ok(())
         } else {
-            Err(CosimError::Usage(format!(
-                "{a} value references but {b} values"
-            )))
+            Err(Self::different_lengths(a, b))
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn different_lengths(a: usize, b: usize) -> CosimError {
+        CosimError::Usage(format!("{a} value references but {b} values"))
     }
 
     /// Set values of one type (`f64`: Real / Float64, `i32`: Integer / Int32, `bool`).
