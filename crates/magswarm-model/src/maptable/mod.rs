@@ -78,6 +78,12 @@ pub use interval::{Iv, Jet, Num, ORDER};
 /// G_x, G_y, P as functions of the depth d \[m\] (the closed forms of [`crate::field`] and the
 /// powers of [`crate::steady`]).
 pub fn depth_part<T: Num>(model: &Model, d: Jet<T>) -> Option<[Jet<T>; 3]> {
+    depth_part_n(model, d)
+}
+
+/// [`depth_part`] over jets of N coefficients (see [`Jet`]: the first coefficients are
+/// the same for any N).
+pub fn depth_part_n<T: Num, const N: usize>(model: &Model, d: Jet<T, N>) -> Option<[Jet<T, N>; 3]> {
     let p = &model.steady;
     let c = &model.conventions;
     let k = model.magnet.dipole_k();
@@ -119,6 +125,14 @@ pub fn depth_part<T: Num>(model: &Model, d: Jet<T>) -> Option<[Jet<T>; 3]> {
 /// L and Phi as functions of w = |omega| / omega_ref. `None` where the logarithm's argument
 /// reaches the floor of the conventions (the exact code clamps there).
 pub fn frequency_part<T: Num>(model: &Model, w: Jet<T>) -> Option<[Jet<T>; 2]> {
+    frequency_part_n(model, w)
+}
+
+/// [`frequency_part`] over jets of N coefficients.
+pub fn frequency_part_n<T: Num, const N: usize>(
+    model: &Model,
+    w: Jet<T, N>,
+) -> Option<[Jet<T, N>; 2]> {
     let p = &model.steady;
     let c = &model.conventions;
     let arg = w.powf(p.q_P)?.scale(p.c_P).addc(1.0);
@@ -137,6 +151,16 @@ pub fn frequency_part<T: Num>(model: &Model, w: Jet<T>) -> Option<[Jet<T>; 2]> {
 
 // ---------------------------------------------------------------------------------------
 // One axis: cells indexed by the top bits of the variable.
+
+/// The K functions of an axis, evaluated three ways for building a cell, each with as many
+/// Taylor coefficients as it uses (the coefficients it uses are those of the full jet, bit
+/// for bit: [`Jet`]): at a node over f64 (value and slope), over the cell over intervals
+/// (up to the fifth coefficient), at the cell's midpoint over intervals (up to the fourth).
+struct Parts<'a, const K: usize> {
+    node: &'a dyn Fn(Jet<f64, 2>) -> Option<[Jet<f64, 2>; K]>,
+    range: &'a dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
+    mid: &'a dyn Fn(Jet<Iv, 5>) -> Option<[Jet<Iv, 5>; K]>,
+}
 
 /// One cell: the cubic of each function in the local coordinate t in [0, 1).
 #[derive(Debug, Clone, Copy)]
@@ -198,15 +222,10 @@ impl<const K: usize> Axis<K> {
     /// Build cell `i` of `f` (written over f64 for the nodes, over intervals for the bound).
     #[cold]
     #[inline(never)]
-    fn build(
-        &self,
-        i: usize,
-        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
-        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
-    ) -> (Cell<K>, CellBound<K>) {
+    fn build(&self, i: usize, f: &Parts<'_, K>) -> (Cell<K>, CellBound<K>) {
         let (a, b) = (self.edge(i), self.edge(i + 1));
         let h = b - a;
-        let node = |x: f64| f64_f(Jet::var(x)).map(|js| js.map(|j| [j.0[0], j.0[1]]));
+        let node = |x: f64| (f.node)(Jet::var(x)).map(|js| js.map(|j| [j.0[0], j.0[1]]));
         let mid = 0.5 * (a + b);
         let mut cell = Cell {
             lo: a,
@@ -218,7 +237,8 @@ impl<const K: usize> Axis<K> {
             value: [f64::INFINITY; K],
             slope: [f64::INFINITY; K],
         };
-        let (Some(na), Some(nb), Some(enc)) = (node(a), node(b), iv_f(Jet::var(Iv::new(a, b))))
+        let (Some(na), Some(nb), Some(enc)) =
+            (node(a), node(b), (f.range)(Jet::var(Iv::new(a, b))))
         else {
             return (cell, bound);
         };
@@ -269,7 +289,7 @@ impl<const K: usize> Axis<K> {
             cell.ok = true;
             return (cell, b);
         }
-        if let Some(at) = iv_f(Jet::var(Iv::new(mid, mid))) {
+        if let Some(at) = (f.mid)(Jet::var(Iv::new(mid, mid))) {
             let m4 =
                 std::array::from_fn(|k| 24.0 * at[k].0[4].mag() + 60.0 * h * enc[k].0[5].mag());
             let (b, ok) = judge(m4, 1.0);
@@ -281,35 +301,21 @@ impl<const K: usize> Axis<K> {
 
     /// The cell holding x (built now if it was not), if tabulated and interpolated.
     #[inline]
-    fn cell(
-        &self,
-        x: f64,
-        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
-        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
-    ) -> Option<(usize, &(Cell<K>, CellBound<K>))> {
+    fn cell(&self, x: f64, f: &Parts<'_, K>) -> Option<(usize, &(Cell<K>, CellBound<K>))> {
         // Negative x, NaN and infinities index far past the end.
         let i = (x.to_bits() >> self.shift).wrapping_sub(self.base) as usize;
         let slot = self.cells.get(i)?;
         let c = match slot.get() {
             Some(c) => c,
-            None => slot.get_or_init(|| self.build(i, f64_f, iv_f)),
+            None => slot.get_or_init(|| self.build(i, f)),
         };
         c.0.ok.then_some((i, c))
     }
 
     /// Build every cell; (cells, interpolated).
-    fn build_all(
-        &self,
-        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
-        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
-    ) -> [usize; 2] {
+    fn build_all(&self, f: &Parts<'_, K>) -> [usize; 2] {
         let ok = (0..self.cells.len())
-            .filter(|&i| {
-                self.cells[i]
-                    .get_or_init(|| self.build(i, f64_f, iv_f))
-                    .0
-                    .ok
-            })
+            .filter(|&i| self.cells[i].get_or_init(|| self.build(i, f)).0.ok)
             .count();
         [self.cells.len(), ok]
     }
@@ -443,7 +449,14 @@ impl MapTable {
     fn depth_cell(&self, d: f64) -> Option<&(Cell<3>, CellBound<3>)> {
         let m = &self.model;
         self.depth
-            .cell(d, &|j| depth_part(m, j), &|j| depth_part(m, j))
+            .cell(
+                d,
+                &Parts {
+                    node: &|j| depth_part_n(m, j),
+                    range: &|j| depth_part_n(m, j),
+                    mid: &|j| depth_part_n(m, j),
+                },
+            )
             .map(|(_, c)| c)
     }
 
@@ -452,7 +465,14 @@ impl MapTable {
     fn freq_cell(&self, w: f64) -> Option<&(Cell<2>, CellBound<2>)> {
         let m = &self.model;
         self.freq
-            .cell(w, &|j| frequency_part(m, j), &|j| frequency_part(m, j))
+            .cell(
+                w,
+                &Parts {
+                    node: &|j| frequency_part_n(m, j),
+                    range: &|j| frequency_part_n(m, j),
+                    mid: &|j| frequency_part_n(m, j),
+                },
+            )
             .map(|(_, c)| c)
     }
 
@@ -592,10 +612,16 @@ impl MapTable {
     pub fn coverage(&self) -> ([usize; 2], [usize; 2]) {
         let m = &self.model;
         (
-            self.depth
-                .build_all(&|j| depth_part(m, j), &|j| depth_part(m, j)),
-            self.freq
-                .build_all(&|j| frequency_part(m, j), &|j| frequency_part(m, j)),
+            self.depth.build_all(&Parts {
+                node: &|j| depth_part_n(m, j),
+                range: &|j| depth_part_n(m, j),
+                mid: &|j| depth_part_n(m, j),
+            }),
+            self.freq.build_all(&Parts {
+                node: &|j| frequency_part_n(m, j),
+                range: &|j| frequency_part_n(m, j),
+                mid: &|j| frequency_part_n(m, j),
+            }),
         )
     }
 }
