@@ -301,13 +301,19 @@ impl<const K: usize> Axis<K> {
 
     /// The cell holding x (built now if it was not), if tabulated and interpolated.
     #[inline]
-    fn cell(&self, x: f64, f: &Parts<'_, K>) -> Option<(usize, &(Cell<K>, CellBound<K>))> {
+    /// `build` builds cell i ([`Axis::build`] with the functions; only called for a cell
+    /// not built yet, so the hot path never assembles them).
+    fn cell(
+        &self,
+        x: f64,
+        build: impl FnOnce(usize) -> (Cell<K>, CellBound<K>),
+    ) -> Option<(usize, &(Cell<K>, CellBound<K>))> {
         // Negative x, NaN and infinities index far past the end.
         let i = (x.to_bits() >> self.shift).wrapping_sub(self.base) as usize;
         let slot = self.cells.get(i)?;
         let c = match slot.get() {
             Some(c) => c,
-            None => slot.get_or_init(|| self.build(i, f)),
+            None => slot.get_or_init(|| build(i)),
         };
         c.0.ok.then_some((i, c))
     }
@@ -448,32 +454,34 @@ impl MapTable {
     #[inline]
     fn depth_cell(&self, d: f64) -> Option<&(Cell<3>, CellBound<3>)> {
         let m = &self.model;
-        self.depth
-            .cell(
-                d,
+        let build = |i| {
+            self.depth.build(
+                i,
                 &Parts {
                     node: &|j| depth_part_n(m, j),
                     range: &|j| depth_part_n(m, j),
                     mid: &|j| depth_part_n(m, j),
                 },
             )
-            .map(|(_, c)| c)
+        };
+        self.depth.cell(d, build).map(|(_, c)| c)
     }
 
     /// The frequency cell holding w (built if needed), if interpolated.
     #[inline]
     fn freq_cell(&self, w: f64) -> Option<&(Cell<2>, CellBound<2>)> {
         let m = &self.model;
-        self.freq
-            .cell(
-                w,
+        let build = |i| {
+            self.freq.build(
+                i,
                 &Parts {
                     node: &|j| frequency_part_n(m, j),
                     range: &|j| frequency_part_n(m, j),
                     mid: &|j| frequency_part_n(m, j),
                 },
             )
-            .map(|(_, c)| c)
+        };
+        self.freq.cell(w, build).map(|(_, c)| c)
     }
 
     /// Whether this table was built for `model`'s map.
