@@ -121,9 +121,15 @@ impl RestMemo {
     }
 
     #[inline]
-    fn factor_for(&self, y: &[f64; 2], hs: f64, key: &[f64; 10], tol: &[f64; 3]) -> Option<f64> {
+    fn factor_for(
+        &self,
+        y: &[f64; 2],
+        hs: f64,
+        key: impl FnOnce() -> [f64; 10],
+        tol: &[f64; 3],
+    ) -> Option<f64> {
         match &self.0 {
-            Some(r) if r.hs == hs && r.y == *y && r.key == *key && r.tol == *tol => Some(r.factor),
+            Some(r) if r.hs == hs && r.y == *y && r.tol == *tol && r.key == key() => Some(r.factor),
             _ => None,
         }
     }
@@ -271,7 +277,9 @@ impl Stepper {
         let mut all_rest = true;
         let mut done = 0.0;
         let mut h = self.h_next.min(tol.h_max).min(h_comm);
-        let key = terms.rhs_key(model);
+        // The right-hand side's key (`InputTerms::rhs_key`), read only when a rest step is
+        // remembered or made.
+        let key = || terms.rhs_key(model);
         // k1 = f(y), computed only when a step is actually evaluated (or kept from the last
         // step, see `FirstStage`).
         let mut k1_slot: Option<[f64; 2]> = match &self.rest.2 {
@@ -288,7 +296,7 @@ impl Stepper {
             if n > tol.max_steps {
                 return Err(StepError::TooManySteps { t: t + done });
             }
-            if let Some(factor) = self.rest.factor_for(y, hs, &key, &tol_key) {
+            if let Some(factor) = self.rest.factor_for(y, hs, key, &tol_key) {
                 // The same accepted step as remembered: y stays, k1 = f(y) stays.
                 done = if last { h_comm } else { done + hs };
                 self.steps += 1;
@@ -343,13 +351,17 @@ impl Stepper {
                 (0.9 * crate::fastpow::pow(err, -0.2)).clamp(0.2, 5.0)
             };
             if err <= 1.0 {
-                self.rest.0 = (y5 == *y).then_some(Rest {
-                    y: y5,
-                    hs,
-                    key,
-                    tol: tol_key,
-                    factor,
-                });
+                self.rest.0 = if y5 == *y {
+                    Some(Rest {
+                        y: y5,
+                        hs,
+                        key: key(),
+                        tol: tol_key,
+                        factor,
+                    })
+                } else {
+                    None
+                };
                 *y = y5;
                 k1_slot = Some(k7);
                 done = if last { h_comm } else { done + hs };
@@ -375,8 +387,8 @@ impl Stepper {
             k1,
         });
         // A step of nothing but replayed rest steps is remembered whole (see `CommStep`).
-        self.rest.1 =
-            (all_rest && *y == y_in && self.rejected == rejected_in).then_some(CommStep {
+        self.rest.1 = if all_rest && *y == y_in && self.rejected == rejected_in {
+            Some(CommStep {
                 id: terms.id(),
                 y: y_in,
                 h_in,
@@ -384,7 +396,10 @@ impl Stepper {
                 tol: tol_key,
                 d_steps: self.steps - steps_in,
                 h_out: self.h_next,
-            });
+            })
+        } else {
+            None
+        };
         Ok(())
     }
 }
