@@ -72,30 +72,72 @@ impl TermsId {
     /// and hands them out one by one, so an input change costs a thread-local increment
     /// rather than an atomic read-modify-write (a locked instruction that stalls the
     /// pipeline, about a seventh of [`InputTerms::new`]); ids stay unique process-wide.
+    /// A [`crate::Plant`] hands out ids from a block of its own ([`TermsIds`]).
     #[inline]
     fn fresh() -> TermsId {
         use std::cell::Cell;
-        use std::sync::atomic::{AtomicU64, Ordering};
-        static BLOCKS: AtomicU64 = AtomicU64::new(0);
         thread_local! {
             /// (next id, end of this thread's block); (0, 0) before the first block.
             static RANGE: Cell<(u64, u64)> = const { Cell::new((0, 0)) };
         }
         RANGE.with(|r| {
-            let (mut next, mut end) = r.get();
-            if next == end {
-                // Block b holds ids b * BLOCK + 1 ..= (b + 1) * BLOCK (0 is never an id).
-                let b = BLOCKS.fetch_add(1, Ordering::Relaxed);
-                next = b * Self::BLOCK + 1;
-                end = next + Self::BLOCK;
-            }
-            r.set((next + 1, end));
-            TermsId(next)
+            let mut ids = TermsIds {
+                next: r.get().0,
+                end: r.get().1,
+            };
+            let id = ids.take();
+            r.set((ids.next, ids.end));
+            id
         })
     }
 
-    /// Ids a thread takes from the global counter at a time.
+    /// Block b holds ids b * BLOCK + 1 ..= (b + 1) * BLOCK (0 is never an id): (first, end).
+    fn new_block() -> (u64, u64) {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static BLOCKS: AtomicU64 = AtomicU64::new(0);
+        let b = BLOCKS.fetch_add(1, Ordering::Relaxed);
+        let next = b * Self::BLOCK + 1;
+        (next, next + Self::BLOCK)
+    }
+
+    /// Ids a thread (or a plant) takes from the global counter at a time.
     const BLOCK: u64 = 1 << 16;
+}
+
+/// A block of [`TermsId`]s of one owner (a thread, a plant), taken from the process's
+/// counter: ids stay unique process-wide while an input change pays an increment, not a
+/// thread-local lookup (in a shared library, a call into the dynamic loader). A clone
+/// starts with no block (it takes its own at its first id), so two owners never hand out
+/// the same id; equality ignores it.
+#[derive(Debug, Default)]
+pub(crate) struct TermsIds {
+    next: u64,
+    end: u64,
+}
+
+impl TermsIds {
+    /// The next id of the block (a new block when it is used up).
+    #[inline]
+    pub(crate) fn take(&mut self) -> TermsId {
+        if self.next == self.end {
+            (self.next, self.end) = TermsId::new_block();
+        }
+        let id = TermsId(self.next);
+        self.next += 1;
+        id
+    }
+}
+
+impl Clone for TermsIds {
+    fn clone(&self) -> TermsIds {
+        TermsIds::default()
+    }
+}
+
+impl PartialEq for TermsIds {
+    fn eq(&self, _: &TermsIds) -> bool {
+        true
+    }
 }
 
 impl InputTerms {
@@ -123,11 +165,12 @@ impl InputTerms {
         z_m: f64,
         omega: f64,
         map: Option<&MapTable>,
+        id: TermsId,
     ) {
         if crate::maptable::tabulable(model) {
-            Self::build_into::<false>(out, model, z_m, omega, map)
+            Self::build_into::<false>(out, model, z_m, omega, map, id)
         } else {
-            Self::build_into::<true>(out, model, z_m, omega, map)
+            Self::build_into::<true>(out, model, z_m, omega, map, id)
         }
     }
 
@@ -139,7 +182,7 @@ impl InputTerms {
         map: Option<&MapTable>,
     ) -> InputTerms {
         let mut t = InputTerms::default();
-        Self::values_into(&mut t, model, z_m, omega, map);
+        Self::values_into(&mut t, model, z_m, omega, map, TermsId::fresh());
         t
     }
 
@@ -170,7 +213,7 @@ impl InputTerms {
         map: Option<&MapTable>,
     ) -> InputTerms {
         let mut t = InputTerms::default();
-        Self::build_into::<WITH_JACOBIAN>(&mut t, model, z_m, omega, map);
+        Self::build_into::<WITH_JACOBIAN>(&mut t, model, z_m, omega, map, TermsId::fresh());
         t
     }
 
@@ -182,6 +225,7 @@ impl InputTerms {
         z_m: f64,
         omega: f64,
         map: Option<&MapTable>,
+        id: TermsId,
     ) {
         let d = &model.dynamics;
         match map {
@@ -217,7 +261,7 @@ impl InputTerms {
         t.de0 = de0;
         t.dk_b = [[0.0; 2]; 2];
         t.jacobian = WITH_JACOBIAN;
-        t.id = TermsId::fresh();
+        t.id = id;
         if d.confinement == crate::params::Confinement::Scheduled {
             t.schedule::<WITH_JACOBIAN>(model);
         }

@@ -5,7 +5,7 @@
 //! only when an input actually changes. `Plant` is `Clone` and holds no heap data on the hot
 //! path, so saving and restoring an FMU state is a plain copy.
 
-use crate::dynamics::{InputTerms, KB_FLOOR};
+use crate::dynamics::{InputTerms, TermsIds, KB_FLOOR};
 use crate::integrate::{StepError, Stepper, Tolerances};
 use crate::maptable::MapTable;
 use crate::steady::SteadyPoint;
@@ -96,6 +96,8 @@ pub struct Plant {
     /// The steady map from tables ([`Plant::use_map_table`]), if asked for and the model's
     /// map is tabulable.
     map: MapSlot,
+    /// The ids of this plant's input terms (a block of its own, see `TermsIds`).
+    ids: TermsIds,
 }
 
 /// [`Plant::terms`] with their Jacobian parts, once asked for (see `Plant::full`). A cache
@@ -218,6 +220,7 @@ impl Plant {
             change: [0.0; 3],
             plain,
             map: MapSlot::default(),
+            ids: TermsIds::default(),
         }
     }
 
@@ -273,12 +276,14 @@ impl Plant {
             MapTable::shared(&self.model)
         };
         let (z_m, omega) = (self.terms.z_m, self.terms.omega);
+        let id = self.ids.take();
         InputTerms::values_into(
             &mut self.terms,
             &self.model,
             z_m,
             omega,
             self.map.in_force(),
+            id,
         );
         self.full = FullTerms::default();
     }
@@ -342,12 +347,13 @@ impl Plant {
         self.full = FullTerms::default();
         let fx = &self.model.effects;
         let map = self.map.in_force();
+        let id = self.ids.take();
         if !fx.tracks_changes() {
-            InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map);
+            InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map, id);
             return;
         }
         let before = self.terms.steady;
-        InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map);
+        InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map, id);
         // The step of the observed steady map this change makes, for the learned terms over
         // the time since it.
         let fx = &self.model.effects;

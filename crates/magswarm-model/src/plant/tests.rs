@@ -108,3 +108,32 @@ fn envelope_validity_is_the_classification_of_the_inputs() {
         }
     }
 }
+
+/// The ids of input terms stay unique across plants, their clones and terms made outside a
+/// plant (each owner hands out ids from a block of its own), and they change with every
+/// input change (the memos keyed by them must never mistake one right-hand side for
+/// another).
+#[test]
+fn input_terms_ids_are_unique_across_plants_and_clones() {
+    let mut seen = std::collections::HashSet::new();
+    let mut a = Plant::new(Model::paper(), 0.0085, hz(4.0));
+    a.set_inputs(0.009, hz(4.5));
+    let mut b = a.clone();
+    assert_eq!(a.terms().id(), b.terms().id(), "a clone has the same terms");
+    let mut c = Plant::new(Model::paper(), 0.0085, hz(4.0));
+    assert!(seen.insert(a.terms().id()));
+    assert!(seen.insert(c.terms().id()));
+    for k in 0..300 {
+        let z = 0.009 + 1e-5 * k as f64;
+        for p in [&mut a, &mut b, &mut c] {
+            p.set_inputs(z, hz(5.0));
+            assert!(
+                seen.insert(p.terms().id()),
+                "id {} handed out twice",
+                p.terms().id()
+            );
+        }
+        let t = InputTerms::new(&Model::paper(), z, hz(5.0));
+        assert!(seen.insert(t.id()));
+    }
+}
