@@ -590,8 +590,11 @@ impl FmuModel for MagSwarm {
 
     /// The inputs first, inline (a master sets them every step): an accepted z_m or
     /// omega_m is stored here; a refused one, and every other variable, go to
-    /// [`MagSwarm::set_real_other`] with the same rules.
+    /// `MagSwarm::set_real_other` with the same rules.
     #[inline]
+    // The limits written as "not beyond" so that they read exactly as the refusals in
+    // `set_real_other` they mirror (a NaN is refused by the shell before it gets here).
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn set_real(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
             vr::Z_M if self.model.z_m_allowed(value) && !(value > MAX_Z_M) => self.z_m = value,

@@ -186,7 +186,8 @@ impl InputTerms {
         t
     }
 
-    /// Whether the Jacobian parts are here (see [`InputTerms::with_jacobian`]).
+    /// Whether the Jacobian parts are here (a plant computes them when asked, see
+    /// [`crate::Plant::terms`]).
     pub fn has_jacobian(&self) -> bool {
         self.jacobian
     }

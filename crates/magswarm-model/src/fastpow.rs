@@ -147,7 +147,7 @@ static TABLES: [Slot; SLOTS] = [FREE; SLOTS];
 /// for a NaN exponent).
 ///
 /// Inline: the common case (the exponent's table built, in its first slot) is a hash, a
-/// load and two comparisons; everything else is [`table_search`], which returns the same
+/// load and two comparisons; everything else is `table_search`, which returns the same
 /// table.
 #[inline]
 pub fn table(e: f64) -> Option<&'static PowTable> {

@@ -65,7 +65,7 @@ impl Default for Stepper {
 /// counts, same next step size; only the arithmetic is skipped). It is a cache: equality
 /// ignores it, snapshots do not carry it (a restored plant recomputes the step once).
 ///
-/// It also keeps the last stage of the last accepted step ([`FirstStage`]): the first stage
+/// It also keeps the last stage of the last accepted step (`FirstStage`): the first stage
 /// of the next communication step, when that starts where this one ended under the same
 /// right-hand side.
 #[derive(Debug, Clone, Copy, Default)]
