@@ -127,10 +127,21 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
 /// ([`crate::dynamics::InputTerms::with_jacobian`]). With an effect that acts on the map
 /// (whose rate or centroid may read the field's derivatives) this is [`evaluate`] itself.
 pub(crate) fn evaluate_values(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
-    if !crate::maptable::tabulable(model) {
+    if !plain_map(model) {
         return evaluate(model, z_m, omega);
     }
     evaluate_core::<false>(model, z_m, omega)
+}
+
+/// Whether the map of `model` is the plain (5)-(7): no effect acts on it (no centroid offset,
+/// phase lag, cohesion loss or learned term on the map). Then its values never read the
+/// Jacobian parts ([`evaluate_values`]) and the map table can hold it.
+pub fn plain_map(model: &Model) -> bool {
+    let fx = &model.effects;
+    fx.centroid_offset.is_none()
+        && fx.phase_lag.is_none()
+        && fx.cohesion_loss.is_none()
+        && !fx.learned.iter().any(|t| t.on_steady_map())
 }
 
 /// The steady map with the learned terms that act on it (`effects.learned` along f or z_m):

@@ -380,13 +380,10 @@ pub struct MapTable {
     alpha_pow: [Option<&'static crate::fastpow::PowTable>; 2],
 }
 
-/// Whether the map of `model` is the plain (5)-(7) that the tables hold: no effect acts on it.
+/// Whether the map of `model` is the plain (5)-(7) that the tables hold: no effect acts on it
+/// ([`steady::plain_map`]).
 pub fn tabulable(model: &Model) -> bool {
-    let fx = &model.effects;
-    fx.centroid_offset.is_none()
-        && fx.phase_lag.is_none()
-        && fx.cohesion_loss.is_none()
-        && !fx.learned.iter().any(|t| t.on_steady_map())
+    steady::plain_map(model)
 }
 
 impl MapTable {
