@@ -134,8 +134,8 @@ pub(crate) fn evaluate_values(model: &Model, z_m: f64, omega: f64) -> SteadyPoin
 }
 
 /// Whether the map of `model` is the plain (5)-(7): no effect acts on it (no centroid offset,
-/// phase lag, cohesion loss or learned term on the map). Then its values never read the
-/// Jacobian parts ([`evaluate_values`]) and the map table can hold it.
+/// phase lag, cohesion loss or learned term on the map). Then its values never read its
+/// Jacobian (an input change of a plant skips it) and the map table can hold it.
 pub fn plain_map(model: &Model) -> bool {
     let fx = &model.effects;
     fx.centroid_offset.is_none()
