@@ -14,7 +14,7 @@
 //!   ABI ([`magswarm::perf::raw::RawLoop`]): doStep at constant inputs / set + doStep + get
 //!   with a new input every call, h = 1 ms;
 //! - `plant-const`, `plant-change`: the in-process `Plant::step(1 ms)`, without / with
-//!   `set_inputs` before every step;
+//!   `set_inputs` before every step (`--table`: with the map table in force, as in the FMU);
 //! - `terms`: `InputTerms::new` alone (the work of one input change);
 //! - `tracking`: the seed's tracking scenario through the FMU and the Rust PID harness
 //!   (`--runs=K`: K runs, each on a new instance of the one loaded FMU, so the runs after
@@ -61,6 +61,7 @@ fn main() -> Result<()> {
         }
         "plant-const" | "plant-change" => {
             let mut p = Plant::new(Model::paper(), 8.5e-3, 4.0 * std::f64::consts::TAU);
+            p.use_map_table(args.iter().any(|a| a == "--table"));
             let mut t = 0.0;
             for _ in 0..n {
                 if what == "plant-change" {

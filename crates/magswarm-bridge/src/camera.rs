@@ -148,10 +148,10 @@ pub fn emulated(
         }
         // What a camera sees: the observed radii (formation mode, drift and camera bias of
         // the model applied), not the ODE state.
-        let o = plant.outputs();
+        let [r1_mm, r2_mm] = plant.observed_radii();
         SwarmState {
-            r1_mm: o.r1,
-            r2_mm: o.r2,
+            r1_mm,
+            r2_mm,
             omega_rad_s: w,
         }
     };

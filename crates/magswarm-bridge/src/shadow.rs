@@ -38,7 +38,6 @@ impl Shadow {
                 p.set_time(t);
             }
         }
-        let o = p.outputs();
-        [o.r1, o.r2]
+        p.observed_radii()
     }
 }

@@ -264,6 +264,9 @@ struct State {
     u: [f64; 2],
     /// Feedforward ramp (z_m [m], omega [rad/s]).
     u_ff: [f64; 2],
+    /// `u_ff` in normalised units (`Scale::x_of`, kept with it rather than divided out
+    /// twice a sample).
+    x_ff: [f64; 2],
     /// Integral term, normalised input units.
     integ: [f64; 2],
     /// Filtered derivative signal [mm].
@@ -275,12 +278,36 @@ struct State {
     /// Setpoint the status below belongs to.
     setpoint: [f64; 2],
     status: Option<InverseResult>,
+    /// The status's feedforward target in normalised units (kept with it).
+    x_goal: [f64; 2],
     last: StepInfo,
     /// Gains in force before a [`Controller::set_gains`] not yet absorbed.
     gains_before: Option<Gains>,
-    /// The decoupler in force and the inputs it was computed at (see
-    /// [`Controller::decoupler`]).
-    decoupler: Option<([f64; 2], mat2::M2)>,
+    /// The decoupler in force, the inputs it was computed at and those in normalised units
+    /// (see [`Controller::decoupler`]).
+    decoupler: Option<Decoupler>,
+}
+
+/// The decoupler in force (see [`Controller::decoupler`]).
+#[derive(Debug, Clone, Copy)]
+struct Decoupler {
+    /// The inputs it was computed at (z_m [m], omega [rad/s]).
+    at: [f64; 2],
+    /// `at` in normalised units (`Scale::x_of`: kept rather than divided out every sample).
+    x_at: [f64; 2],
+    /// The damped inverse of the normalised Jacobian at `at`.
+    m: mat2::M2,
+}
+
+/// Per-sample constants of the controller, derived once from its configuration (the same
+/// expressions the sample evaluated each time, so the same values): the rate limits per
+/// sample in normalised units, the derivative filter's coefficient and the back-calculation
+/// gain. Rederived whenever the gains change.
+#[derive(Debug, Clone, Copy)]
+struct Derived {
+    max_dx: [f64; 2],
+    deriv_a: f64,
+    track: f64,
 }
 
 /// The controller's mutable state as plain data: what an FMU state or a checkpoint of a
@@ -309,12 +336,29 @@ pub struct ControllerSnapshot {
     decoupler_at: Option<[f64; 2]>,
 }
 
+impl Derived {
+    fn of(cfg: &PidConfig, scale: &Scale) -> Derived {
+        let ts = cfg.sample_time_s;
+        let l = &cfg.limits;
+        let g = &cfg.gains;
+        Derived {
+            max_dx: [
+                l.z_rate_mm_s * 1e-3 * ts / scale.dz,
+                l.f_rate_hz_s * std::f64::consts::TAU * ts / scale.dw,
+            ],
+            deriv_a: ts / (g.derivative_filter_s + ts),
+            track: ts / g.tracking_time_s.max(ts),
+        }
+    }
+}
+
 /// The discrete-time decoupled PID.
 #[derive(Debug, Clone)]
 pub struct Controller {
     model: Model,
     cfg: PidConfig,
     scale: Scale,
+    derived: Derived,
     st: State,
 }
 
@@ -323,20 +367,24 @@ impl Controller {
     pub fn new(model: Model, cfg: PidConfig) -> Result<Controller, ConfigError> {
         cfg.validate()?;
         let scale = Scale::new(&cfg.limits.envelope());
+        let derived = Derived::of(&cfg, &scale);
         Ok(Controller {
             model,
             cfg,
             scale,
+            derived,
             st: State {
                 initialized: false,
                 u: [0.0; 2],
                 u_ff: [0.0; 2],
+                x_ff: scale.x_of([0.0; 2]),
                 integ: [0.0; 2],
                 d_filt: [0.0; 2],
                 r_pre: [0.0; 2],
                 model_plant: None,
                 setpoint: [f64::NAN; 2],
                 status: None,
+                x_goal: [0.0; 2],
                 last: StepInfo::default(),
                 gains_before: None,
                 decoupler: None,
@@ -370,6 +418,7 @@ impl Controller {
         st.initialized = true;
         st.u = u;
         st.u_ff = u;
+        st.x_ff = self.scale.x_of(u);
         st.integ = [0.0; 2];
         st.gains_before = None;
         st.decoupler = None;
@@ -404,7 +453,7 @@ impl Controller {
             last: st.last,
             gains: self.cfg.gains,
             gains_before: st.gains_before,
-            decoupler_at: st.decoupler.map(|(u, _)| u),
+            decoupler_at: st.decoupler.map(|d| d.at),
         }
     }
 
@@ -413,10 +462,12 @@ impl Controller {
     pub fn restore(&mut self, s: &ControllerSnapshot) {
         let model = &self.model;
         self.cfg.gains = s.gains;
+        self.derived = Derived::of(&self.cfg, &self.scale);
         self.st = State {
             initialized: s.initialized,
             u: s.u,
             u_ff: s.u_ff,
+            x_ff: self.scale.x_of(s.u_ff),
             integ: s.integ,
             d_filt: s.d_filt,
             r_pre: s.r_pre,
@@ -426,11 +477,14 @@ impl Controller {
                 .map(|p| Plant::from_snapshot(model.clone(), p)),
             setpoint: s.setpoint.unwrap_or([f64::NAN; 2]),
             status: s.status,
+            x_goal: s
+                .status
+                .map_or([0.0; 2], |st| self.scale.x_of([st.z_m, st.omega])),
             last: s.last,
             gains_before: s.gains_before,
             decoupler: None,
         };
-        self.st.decoupler = s.decoupler_at.map(|u| (u, self.decoupler_at(u)));
+        self.st.decoupler = s.decoupler_at.map(|u| self.decoupler_at(u));
     }
 
     /// Change the gains without a bump in the output: at the next sample the integral absorbs
@@ -441,6 +495,7 @@ impl Controller {
             self.st.gains_before = Some(self.cfg.gains);
         }
         self.cfg.gains = gains;
+        self.derived = Derived::of(&self.cfg, &self.scale);
     }
 
     /// The inverse-map result for the setpoint in force: the reachable setpoint, whether the
@@ -502,26 +557,32 @@ impl Controller {
     /// samples, and the run's inputs and radii are bit for bit those of computing it on
     /// every sample. The inputs it was computed at are part of the state ([`ControllerSnapshot`]),
     /// so a restored controller continues bit for bit.
-    fn decoupler(&mut self, u: [f64; 2]) -> mat2::M2 {
-        if let Some((at, m)) = self.st.decoupler {
-            let (x, x_at) = (self.scale.x_of(u), self.scale.x_of(at));
+    ///
+    /// `x` is `u` in normalised units (`Scale::x_of(u)`, which the caller has at hand).
+    fn decoupler(&mut self, u: [f64; 2], x: [f64; 2]) -> mat2::M2 {
+        if let Some(d) = self.st.decoupler {
+            let x_at = d.x_at;
             if (x[0] - x_at[0]).abs() <= DECOUPLER_RESOLUTION
                 && (x[1] - x_at[1]).abs() <= DECOUPLER_RESOLUTION
             {
-                return m;
+                return d.m;
             }
         }
-        let m = self.decoupler_at(u);
-        self.st.decoupler = Some((u, m));
-        m
+        let d = self.decoupler_at(u);
+        self.st.decoupler = Some(d);
+        d.m
     }
 
     /// Damped inverse of the normalised Jacobian at inputs u, computed.
-    fn decoupler_at(&self, u: [f64; 2]) -> mat2::M2 {
+    fn decoupler_at(&self, u: [f64; 2]) -> Decoupler {
         let sp = steady::evaluate(&self.model, u[0], u[1]);
         let jx = self.scale.jac_x(&sp.jac);
         let lambda = self.cfg.decoupler_damping * mat2::singular_values(&jx)[0];
-        mat2::damped_inverse(&jx, lambda)
+        Decoupler {
+            at: u,
+            x_at: self.scale.x_of(u),
+            m: mat2::damped_inverse(&jx, lambda),
+        }
     }
 
     /// One sample: measurement (r1, r2) [mm] and setpoint (r1*, r2*) [mm] in, inputs
@@ -538,7 +599,9 @@ impl Controller {
                 bounds: Some(self.cfg.limits.envelope()),
                 ..InverseOptions::default()
             };
-            self.st.status = Some(inverse_with(&self.model, setpoint[0], setpoint[1], &opt));
+            let status = inverse_with(&self.model, setpoint[0], setpoint[1], &opt);
+            self.st.x_goal = self.scale.x_of([status.z_m, status.omega]);
+            self.st.status = Some(status);
             self.st.setpoint = setpoint;
         }
         let status = self.st.status.expect("set above");
@@ -549,11 +612,7 @@ impl Controller {
         }
 
         // Per-sample steps allowed by the rate limits, in normalised units.
-        let l = &self.cfg.limits;
-        let max_dx = [
-            l.z_rate_mm_s * 1e-3 * ts / self.scale.dz,
-            l.f_rate_hz_s * std::f64::consts::TAU * ts / self.scale.dw,
-        ];
+        let max_dx = self.derived.max_dx;
 
         // Reference.
         let r_ref = if self.cfg.feedforward {
@@ -562,8 +621,8 @@ impl Controller {
             let r_ref = p.state();
             // ...then the feedforward for this sample, ramped at the rate limits, and the
             // model advanced under it for the next sample.
-            let x_ff = self.scale.x_of(self.st.u_ff);
-            let x_goal = self.scale.x_of(u_goal);
+            let x_ff = self.st.x_ff;
+            let x_goal = self.st.x_goal;
             // A straight line in normalised inputs, both inputs arriving together, at the
             // speed of the axis with the longer way to go.
             let d = [x_goal[0] - x_ff[0], x_goal[1] - x_ff[1]];
@@ -575,6 +634,7 @@ impl Controller {
             }
             let x_new = [x_ff[0] + k * d[0], x_ff[1] + k * d[1]];
             self.st.u_ff = self.scale.u_of(x_new);
+            self.st.x_ff = self.scale.x_of(self.st.u_ff);
             p.set_inputs(self.st.u_ff[0], self.st.u_ff[1]);
             if p.step(ts).is_err() {
                 // Never expected inside the envelope; fall back to the map.
@@ -598,7 +658,7 @@ impl Controller {
         } else {
             [-y[0], -y[1]]
         };
-        let a = ts / (g.derivative_filter_s + ts);
+        let a = self.derived.deriv_a;
         let mut deriv = [0.0; 2];
         for i in 0..2 {
             let prev = self.st.d_filt[i];
@@ -609,7 +669,8 @@ impl Controller {
         let dterm = [g.kd[0] * deriv[0], g.kd[1] * deriv[1]];
 
         // Decoupled correction.
-        let jinv = self.decoupler(self.st.u);
+        let x_prev = self.scale.x_of(self.st.u);
+        let jinv = self.decoupler(self.st.u, x_prev);
         if let Some(old) = self.st.gains_before.take() {
             // Bumpless gain change: the integral takes over the difference.
             let dv = [
@@ -622,12 +683,11 @@ impl Controller {
         }
         let v = [g.kp[0] * e[0] + dterm[0], g.kp[1] * e[1] + dterm[1]];
         let dv = mat2::mul_v(&jinv, v);
-        let x_ff = self.scale.x_of(self.st.u_ff);
+        let x_ff = self.st.x_ff;
         let x_des = [
             x_ff[0] + dv[0] + self.st.integ[0],
             x_ff[1] + dv[1] + self.st.integ[1],
         ];
-        let x_prev = self.scale.x_of(self.st.u);
         let mut x_cmd = [0.0; 2];
         let mut saturated = [false; 2];
         let mut rate_limited = [false; 2];
@@ -648,7 +708,7 @@ impl Controller {
                 di = 0.0;
             }
             if g.tracking_time_s > 0.0 {
-                di -= (ts / g.tracking_time_s.max(ts)) * excess;
+                di -= self.derived.track * excess;
             }
             self.st.integ[i] += di;
         }

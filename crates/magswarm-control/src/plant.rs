@@ -162,12 +162,11 @@ impl SwarmPlant for Plant {
         Inputs::new(z, w)
     }
 
-    /// The observed radii ([`Plant::outputs`]: formation mode, drift and camera bias of the
-    /// model applied), which is what a measurement of this plant reads; the ODE state is
-    /// the physical footprint behind it.
+    /// The observed radii ([`Plant::observed_radii`]: formation mode, drift and camera bias
+    /// of the model applied), which is what a measurement of this plant reads; the ODE state
+    /// is the physical footprint behind it.
     fn measure(&mut self) -> Result<Reading, PlantError> {
-        let o = self.outputs();
-        Ok(Reading::new(self.time(), [o.r1, o.r2]))
+        Ok(Reading::new(self.time(), self.observed_radii()))
     }
 
     fn step(&mut self, u: Inputs, dt_s: f64) -> Result<Reading, PlantError> {

@@ -244,6 +244,7 @@ impl CoSimulation {
     }
 
     /// Read the outputs now.
+    #[inline]
     pub fn measure(&mut self) -> Result<Measurement> {
         let s = self.slave.get_real(&self.out_vr, &mut self.buf)?;
         if s == Status::Warning {
@@ -264,6 +265,7 @@ impl CoSimulation {
     }
 
     /// Set the inputs and advance `dt` seconds (the communication step of [`SwarmPlant::step`]).
+    #[inline]
     fn advance_by(&mut self, u: Inputs, dt: f64) -> Result<Status> {
         let u = u.to_array();
         let bits = u.map(f64::to_bits);
@@ -359,14 +361,17 @@ impl Measurement {
 /// camera); an FMI error is [`PlantError::Interface`] with the function, status and the
 /// FMU's message.
 impl SwarmPlant for CoSimulation {
+    #[inline]
     fn time_s(&self) -> f64 {
         self.t
     }
 
+    #[inline]
     fn inputs(&self) -> Inputs {
         Inputs::new(self.inputs[0], self.inputs[1])
     }
 
+    #[inline]
     fn measure(&mut self) -> std::result::Result<Reading, PlantError> {
         match CoSimulation::measure(self) {
             Ok(m) => Ok(Reading {
@@ -379,6 +384,7 @@ impl SwarmPlant for CoSimulation {
         }
     }
 
+    #[inline]
     fn step(&mut self, u: Inputs, dt_s: f64) -> std::result::Result<Reading, PlantError> {
         if let Err(e) = self.advance_by(u, dt_s) {
             return Err(self.plant_error(e));
@@ -392,6 +398,8 @@ impl SwarmPlant for CoSimulation {
 }
 
 impl CoSimulation {
+    #[cold]
+    #[inline(never)]
     fn plant_error(&mut self, e: CosimError) -> PlantError {
         let p = PlantError::Interface(e.to_string());
         self.last_error = Some(e);

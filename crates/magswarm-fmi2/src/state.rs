@@ -58,7 +58,9 @@ pub enum Func {
 }
 
 impl Func {
-    /// The C name, used as the prefix of log messages.
+    /// The C name, used as the prefix of log messages (inline: a constant where the function
+    /// is one, as in every entry point).
+    #[inline(always)]
     pub fn name(self) -> &'static str {
         match self {
             Func::SetDebugLogging => "fmi2SetDebugLogging",

@@ -54,7 +54,9 @@ macro_rules! funcs {
             /// Every function, in the order of `fmi3Functions.h`.
             pub const ALL: &'static [Func] = &[$(Func::$v),*];
 
-            /// The C name, used as the prefix of log messages.
+            /// The C name, used as the prefix of log messages (inline: a constant where the function
+            /// is one, as in every entry point).
+            #[inline(always)]
             pub fn name(self) -> &'static str {
                 match self { $(Func::$v => $name),* }
             }

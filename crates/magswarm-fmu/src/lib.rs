@@ -192,6 +192,22 @@ impl MagSwarm {
 
     fn check_envelope(&mut self, ctx: &mut Ctx<'_>) {
         let v = self.model.envelope.classify(self.z_m, self.omega);
+        self.warn_envelope(ctx, v);
+    }
+
+    /// Warn once per excursion when the inputs (classified as `v` by the envelope) leave it,
+    /// say so (debug) when they come back.
+    #[inline]
+    fn warn_envelope(&mut self, ctx: &mut Ctx<'_>, v: magswarm_model::Validity) {
+        if v.extrapolating() != self.outside {
+            self.envelope_crossed(ctx, v);
+        }
+    }
+
+    /// The inputs left the envelope or came back ([`MagSwarm::warn_envelope`]).
+    #[cold]
+    #[inline(never)]
+    fn envelope_crossed(&mut self, ctx: &mut Ctx<'_>, v: magswarm_model::Validity) {
         if v.extrapolating() && !self.outside {
             let e = &self.model.envelope;
             ctx.warning(format!(
@@ -227,7 +243,10 @@ impl MagSwarm {
     }
 
     /// After a step: every output finite, checking the input-dependent ones (and the
-    /// envelope) only when the inputs changed since the last check.
+    /// envelope) only when the inputs changed since the last check. The step makes these
+    /// tests inline and comes here when one fails, to name the output.
+    #[cold]
+    #[inline(never)]
     fn check_after_step(&mut self) -> Result<(), ModelError> {
         let now = [self.z_m.to_bits(), self.omega.to_bits()];
         if now != self.checked {
@@ -329,6 +348,69 @@ impl MagSwarm {
     }
 }
 
+impl MagSwarm {
+    /// [`FmuModel::set_real`] of everything but an accepted input: the refusals of z_m and
+    /// omega_m (naming the rule) and the parameters.
+    #[cold]
+    #[inline(never)]
+    fn set_real_other(
+        &mut self,
+        _ctx: &mut Ctx<'_>,
+        vr: u32,
+        value: f64,
+    ) -> Result<(), ModelError> {
+        match vr {
+            vr::Z_M => {
+                // The model's rule: a z_m that puts the swarm inside the magnet is bad input.
+                self.model
+                    .check_z_m(value)
+                    .map_err(|e| ModelError::error(e.to_string()))?;
+                if value > MAX_Z_M {
+                    return Err(ModelError::error(format!(
+                        "z_m = {value:e} m is beyond {MAX_Z_M} m, where the field model has \
+                         nothing left to say (validated envelope {}-{} mm)",
+                        self.model.envelope.z_min_m * 1e3,
+                        self.model.envelope.z_max_m * 1e3
+                    )));
+                }
+                self.z_m = value
+            }
+            vr::OMEGA_M => {
+                if value.abs() > MAX_OMEGA {
+                    return Err(ModelError::error(format!(
+                        "omega_m = {value:e} rad/s is beyond +-{MAX_OMEGA} rad/s (validated \
+                         envelope {}-{} Hz)",
+                        self.model.envelope.f_min_hz, self.model.envelope.f_max_hz
+                    )));
+                }
+                self.omega = value
+            }
+            vr::R1_START => {
+                self.r_start[0] = value;
+                self.invalidate();
+            }
+            vr::R2_START => {
+                self.r_start[1] = value;
+                self.invalidate();
+            }
+            v if v >= vr::PARAM_BASE => {
+                let i = (v - vr::PARAM_BASE) as usize;
+                let p = PARAMS
+                    .get(i)
+                    .ok_or_else(|| ModelError::unknown_vr(magswarm_fmi::VarType::Real, v))?;
+                let mut m = self.model.clone();
+                (p.set)(&mut m, value);
+                m.validate()
+                    .map_err(|e| ModelError::error(format!("{}: {}", p.name, e.message)))?;
+                self.model = m;
+                self.invalidate();
+            }
+            other => return Err(ModelError::unknown_vr(magswarm_fmi::VarType::Real, other)),
+        }
+        Ok(())
+    }
+}
+
 impl FmuModel for MagSwarm {
     fn model_info() -> &'static ModelInfo {
         &INFO
@@ -369,7 +451,10 @@ impl FmuModel for MagSwarm {
     fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
         let unchanged = [self.z_m.to_bits(), self.omega.to_bits()] == self.checked;
         if !unchanged {
-            self.check_envelope(ctx);
+            // The plant takes the new inputs and classifies them against the envelope (the
+            // classification `check_envelope` makes, without making it twice).
+            let v = self.plant().envelope_validity();
+            self.warn_envelope(ctx, v);
         }
         let plant = self.plant();
         // The plant's clock is the FMU's (time-dependent effects such as particle drift).
@@ -377,9 +462,18 @@ impl FmuModel for MagSwarm {
         if let Err(e) = plant.step(step) {
             return Err(self.step_error(e));
         }
-        // Same inputs as at the last check: only the radii moved (the common case, inline).
-        if unchanged && self.plant().observed_radii().iter().all(|r| r.is_finite()) {
-            return Ok(());
+        // Every output finite, inline: at the inputs of the last check only the radii moved;
+        // at new inputs every output is looked at and the inputs are marked checked.
+        // `check_after_step` makes the same tests and names what failed.
+        if let Some(plant) = &self.plant {
+            if unchanged {
+                if plant.observed_radii().iter().all(|r| r.is_finite()) {
+                    return Ok(());
+                }
+            } else if plant.outputs_finite() {
+                self.checked = [self.z_m.to_bits(), self.omega.to_bits()];
+                return Ok(());
+            }
         }
         self.check_after_step()
     }
@@ -470,7 +564,15 @@ impl FmuModel for MagSwarm {
     }
 
     fn get_reals(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), (u32, ModelError)> {
-        // A master reads r1 and r2 together: the plant is looked at once for both.
+        // A master reads r1 and r2 together: the plant is looked at once for both (and when
+        // they are all it reads, with no other case on the way).
+        if vrs.iter().all(|&vr| vr == vr::R1 || vr == vr::R2) {
+            let r = self.plant().observed_radii();
+            for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
+                *o = r[(vr - vr::R1) as usize] * 1e-3;
+            }
+            return Ok(());
+        }
         let mut radii: Option<[f64; 2]> = None;
         for (&vr, o) in vrs.iter().zip(out.iter_mut()) {
             *o = if vr == vr::R1 || vr == vr::R2 {
@@ -486,54 +588,18 @@ impl FmuModel for MagSwarm {
         Ok(())
     }
 
-    fn set_real(&mut self, _ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
+    /// The inputs first, inline (a master sets them every step): an accepted z_m or
+    /// omega_m is stored here; a refused one, and every other variable, go to
+    /// `MagSwarm::set_real_other` with the same rules.
+    #[inline]
+    // The limits written as "not beyond" so that they read exactly as the refusals in
+    // `set_real_other` they mirror (a NaN is refused by the shell before it gets here).
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    fn set_real(&mut self, ctx: &mut Ctx<'_>, vr: u32, value: f64) -> Result<(), ModelError> {
         match vr {
-            vr::Z_M => {
-                // The model's rule: a z_m that puts the swarm inside the magnet is bad input.
-                self.model
-                    .check_z_m(value)
-                    .map_err(|e| ModelError::error(e.to_string()))?;
-                if value > MAX_Z_M {
-                    return Err(ModelError::error(format!(
-                        "z_m = {value:e} m is beyond {MAX_Z_M} m, where the field model has \
-                         nothing left to say (validated envelope {}-{} mm)",
-                        self.model.envelope.z_min_m * 1e3,
-                        self.model.envelope.z_max_m * 1e3
-                    )));
-                }
-                self.z_m = value
-            }
-            vr::OMEGA_M => {
-                if value.abs() > MAX_OMEGA {
-                    return Err(ModelError::error(format!(
-                        "omega_m = {value:e} rad/s is beyond +-{MAX_OMEGA} rad/s (validated \
-                         envelope {}-{} Hz)",
-                        self.model.envelope.f_min_hz, self.model.envelope.f_max_hz
-                    )));
-                }
-                self.omega = value
-            }
-            vr::R1_START => {
-                self.r_start[0] = value;
-                self.invalidate();
-            }
-            vr::R2_START => {
-                self.r_start[1] = value;
-                self.invalidate();
-            }
-            v if v >= vr::PARAM_BASE => {
-                let i = (v - vr::PARAM_BASE) as usize;
-                let p = PARAMS
-                    .get(i)
-                    .ok_or_else(|| ModelError::unknown_vr(magswarm_fmi::VarType::Real, v))?;
-                let mut m = self.model.clone();
-                (p.set)(&mut m, value);
-                m.validate()
-                    .map_err(|e| ModelError::error(format!("{}: {}", p.name, e.message)))?;
-                self.model = m;
-                self.invalidate();
-            }
-            other => return Err(ModelError::unknown_vr(magswarm_fmi::VarType::Real, other)),
+            vr::Z_M if self.model.z_m_allowed(value) && !(value > MAX_Z_M) => self.z_m = value,
+            vr::OMEGA_M if !(value.abs() > MAX_OMEGA) => self.omega = value,
+            _ => return self.set_real_other(ctx, vr, value),
         }
         Ok(())
     }

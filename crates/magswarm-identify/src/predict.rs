@@ -75,8 +75,7 @@ pub fn replay(model: &Model, rows: &[InputRow], rtol: f64) -> Result<Vec<[f64; 2
             })?;
         }
         t_prev = r.t;
-        let o = plant.outputs();
-        out.push([o.r1, o.r2]);
+        out.push(plant.observed_radii());
     }
     Ok(out)
 }

@@ -357,8 +357,8 @@ impl LabSwarm {
     /// The radii a perfect measurement at this instant reads \[mm\] (truth model with its
     /// effects, then the foreign ones). `rng` draws the rotation phase of a projected frame.
     pub fn true_radii(&self, rng: &mut StdRng) -> [f64; 2] {
-        let o = self.plant.outputs();
-        let mut r = [o.r1 * self.growth[0], o.r2 * self.growth[1]];
+        let o = self.plant.observed_radii();
+        let mut r = [o[0] * self.growth[0], o[1] * self.growth[1]];
         for fx in &self.foreign {
             match *fx {
                 Foreign::DriftSqrt { c_per_sqrt_h } => {

@@ -45,6 +45,11 @@ pub struct InputTerms {
     de0: [f64; 2],
     /// d K_b,i / d(z_m, omega) (zero for constant gains).
     dk_b: [[f64; 2]; 2],
+    /// The Jacobian parts (`steady.ds`, `steady.jac`, the field's z-derivatives but
+    /// `db_dz`, `de0`, `dk_b`) were computed. Always true for terms made outside this
+    /// crate; a [`crate::Plant`] keeps terms without them and computes them when asked
+    /// ([`InputTerms::with_jacobian`]).
+    jacobian: bool,
     /// Which computation these terms came from (see [`TermsId`]).
     id: TermsId,
 }
@@ -67,30 +72,72 @@ impl TermsId {
     /// and hands them out one by one, so an input change costs a thread-local increment
     /// rather than an atomic read-modify-write (a locked instruction that stalls the
     /// pipeline, about a seventh of [`InputTerms::new`]); ids stay unique process-wide.
+    /// A [`crate::Plant`] hands out ids from a block of its own ([`TermsIds`]).
     #[inline]
     fn fresh() -> TermsId {
         use std::cell::Cell;
-        use std::sync::atomic::{AtomicU64, Ordering};
-        static BLOCKS: AtomicU64 = AtomicU64::new(0);
         thread_local! {
             /// (next id, end of this thread's block); (0, 0) before the first block.
             static RANGE: Cell<(u64, u64)> = const { Cell::new((0, 0)) };
         }
         RANGE.with(|r| {
-            let (mut next, mut end) = r.get();
-            if next == end {
-                // Block b holds ids b * BLOCK + 1 ..= (b + 1) * BLOCK (0 is never an id).
-                let b = BLOCKS.fetch_add(1, Ordering::Relaxed);
-                next = b * Self::BLOCK + 1;
-                end = next + Self::BLOCK;
-            }
-            r.set((next + 1, end));
-            TermsId(next)
+            let mut ids = TermsIds {
+                next: r.get().0,
+                end: r.get().1,
+            };
+            let id = ids.take();
+            r.set((ids.next, ids.end));
+            id
         })
     }
 
-    /// Ids a thread takes from the global counter at a time.
+    /// Block b holds ids b * BLOCK + 1 ..= (b + 1) * BLOCK (0 is never an id): (first, end).
+    fn new_block() -> (u64, u64) {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static BLOCKS: AtomicU64 = AtomicU64::new(0);
+        let b = BLOCKS.fetch_add(1, Ordering::Relaxed);
+        let next = b * Self::BLOCK + 1;
+        (next, next + Self::BLOCK)
+    }
+
+    /// Ids a thread (or a plant) takes from the global counter at a time.
     const BLOCK: u64 = 1 << 16;
+}
+
+/// A block of [`TermsId`]s of one owner (a thread, a plant), taken from the process's
+/// counter: ids stay unique process-wide while an input change pays an increment, not a
+/// thread-local lookup (in a shared library, a call into the dynamic loader). A clone
+/// starts with no block (it takes its own at its first id), so two owners never hand out
+/// the same id; equality ignores it.
+#[derive(Debug, Default)]
+pub(crate) struct TermsIds {
+    next: u64,
+    end: u64,
+}
+
+impl TermsIds {
+    /// The next id of the block (a new block when it is used up).
+    #[inline]
+    pub(crate) fn take(&mut self) -> TermsId {
+        if self.next == self.end {
+            (self.next, self.end) = TermsId::new_block();
+        }
+        let id = TermsId(self.next);
+        self.next += 1;
+        id
+    }
+}
+
+impl Clone for TermsIds {
+    fn clone(&self) -> TermsIds {
+        TermsIds::default()
+    }
+}
+
+impl PartialEq for TermsIds {
+    fn eq(&self, _: &TermsIds) -> bool {
+        true
+    }
 }
 
 impl InputTerms {
@@ -102,12 +149,93 @@ impl InputTerms {
     /// As [`InputTerms::new`], with the steady map from `map` (a [`MapTable`] built for
     /// `model`: within its proven bound of the exact map) when given.
     pub fn with_map(model: &Model, z_m: f64, omega: f64, map: Option<&MapTable>) -> InputTerms {
+        Self::build::<true>(model, z_m, omega, map)
+    }
+
+    /// [`InputTerms::with_map`] without the Jacobian parts, written into `out`: the same
+    /// coefficients of (4), bit for bit (the same expressions), for about two thirds of the
+    /// work (the map table's slopes, the field's z-derivatives, the chain rule through
+    /// (5)-(7), the scheduled gains' derivatives: a dozen divisions among them), built where
+    /// the plant keeps them (no copy). What stepping (4) needs; the Jacobian is computed
+    /// when asked ([`InputTerms::with_jacobian`]). With an effect that acts on the map, the
+    /// full terms (its rates read the Jacobian parts).
+    pub(crate) fn values_into(
+        out: &mut InputTerms,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+        id: TermsId,
+    ) {
+        if crate::maptable::tabulable(model) {
+            Self::build_into::<false>(out, model, z_m, omega, map, id)
+        } else {
+            Self::build_into::<true>(out, model, z_m, omega, map, id)
+        }
+    }
+
+    /// [`InputTerms::values_into`] as a value.
+    pub(crate) fn values_with_map(
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+    ) -> InputTerms {
+        let mut t = InputTerms::default();
+        Self::values_into(&mut t, model, z_m, omega, map, TermsId::fresh());
+        t
+    }
+
+    /// Whether the Jacobian parts are here (a plant computes them when asked, see
+    /// [`crate::Plant::terms`]).
+    pub fn has_jacobian(&self) -> bool {
+        self.jacobian
+    }
+
+    /// These terms with their Jacobian parts: a copy if they have them, else the full
+    /// computation at the same inputs with the same `map` (the one these terms were made
+    /// with), whose values are these bit for bit and whose Jacobian is the one
+    /// [`InputTerms::with_map`] gives. Keeps the id (the same coefficients of (4)).
+    pub(crate) fn with_jacobian(&self, model: &Model, map: Option<&MapTable>) -> InputTerms {
+        if self.jacobian {
+            return *self;
+        }
+        let mut t = Self::with_map(model, self.z_m, self.omega, map);
+        t.id = self.id;
+        t
+    }
+
+    /// The terms, with the Jacobian parts only `WITH_JACOBIAN` (the values are the same
+    /// expressions either way).
+    fn build<const WITH_JACOBIAN: bool>(
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+    ) -> InputTerms {
+        let mut t = InputTerms::default();
+        Self::build_into::<WITH_JACOBIAN>(&mut t, model, z_m, omega, map, TermsId::fresh());
+        t
+    }
+
+    /// [`InputTerms::build`] into `t` (every field written).
+    #[inline(always)]
+    fn build_into<const WITH_JACOBIAN: bool>(
+        t: &mut InputTerms,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+        id: TermsId,
+    ) {
         let d = &model.dynamics;
-        let sp = match map {
-            Some(t) => t.evaluate(model, z_m, omega),
-            None => steady::evaluate(model, z_m, omega),
-        };
-        let (w, dw) = steady::norm_freq(model, omega);
+        match map {
+            Some(m) => m.evaluate_into::<WITH_JACOBIAN>(model, z_m, omega, &mut t.steady),
+            None if WITH_JACOBIAN => t.steady = steady::evaluate(model, z_m, omega),
+            None => t.steady = steady::evaluate_values(model, z_m, omega),
+        }
+        let sp = &t.steady;
+        let (w, dw) = steady::norm_freq_with::<WITH_JACOBIAN>(model, omega);
         // The swarm's rotation rate (|omega| unless the phase_lag effect makes it step out).
         let (w, dw, dw_dz) = steady::swarm_rate(model, w, dw, &sp.field);
         let wp = if w > 0.0 {
@@ -115,33 +243,34 @@ impl InputTerms {
         } else {
             0.0
         };
-        let dwp = if w > 0.0 { d.p * wp / w * dw } else { 0.0 };
         let e0 = d.K_tau * wp * d.s_B * sp.field.b;
-        let mut de0 = [
-            d.K_tau * wp * d.s_B * sp.field.db_dz,
-            d.K_tau * dwp * d.s_B * sp.field.b,
-        ];
-        if dw_dz != 0.0 && w > 0.0 {
-            de0[0] += d.K_tau * d.p * wp / w * dw_dz * d.s_B * sp.field.b;
+        let mut de0 = [0.0; 2];
+        if WITH_JACOBIAN {
+            let dwp = if w > 0.0 { d.p * wp / w * dw } else { 0.0 };
+            de0 = [
+                d.K_tau * wp * d.s_B * sp.field.db_dz,
+                d.K_tau * dwp * d.s_B * sp.field.b,
+            ];
+            if dw_dz != 0.0 && w > 0.0 {
+                de0[0] += d.K_tau * d.p * wp / w * dw_dz * d.s_B * sp.field.b;
+            }
         }
-        let mut terms = InputTerms {
-            z_m,
-            omega,
-            steady: sp,
-            e0,
-            k_b: [d.K_b1, d.K_b2],
-            de0,
-            dk_b: [[0.0; 2]; 2],
-            id: TermsId::fresh(),
-        };
+        t.z_m = z_m;
+        t.omega = omega;
+        t.e0 = e0;
+        t.k_b = [d.K_b1, d.K_b2];
+        t.de0 = de0;
+        t.dk_b = [[0.0; 2]; 2];
+        t.jacobian = WITH_JACOBIAN;
+        t.id = id;
         if d.confinement == crate::params::Confinement::Scheduled {
-            terms.schedule(model);
+            t.schedule::<WITH_JACOBIAN>(model);
         }
-        terms
     }
 
-    /// Set K_b,i so that (r1*, r2*) of the map is an equilibrium, with its derivatives.
-    fn schedule(&mut self, model: &Model) {
+    /// Set K_b,i so that (r1*, r2*) of the map is an equilibrium, with its derivatives
+    /// (only `WITH_JACOBIAN`).
+    fn schedule<const WITH_JACOBIAN: bool>(&mut self, model: &Model) {
         let d = &model.dynamics;
         let sp = self.steady;
         let rs = [sp.r1, sp.r2];
@@ -165,6 +294,9 @@ impl InputTerms {
                 continue;
             }
             self.k_b[i] = kb;
+            if !WITH_JACOBIAN {
+                continue;
+            }
             // The derivatives only feed Jacobians: one division for both (the gain itself
             // stays an exact quotient, it drives the trajectory).
             let inv_den = 1.0 / den;
@@ -194,12 +326,27 @@ impl InputTerms {
     /// stages).
     #[inline(always)]
     pub fn rhs(&self, model: &Model, r: [f64; 2]) -> [f64; 2] {
+        let beta = model.dynamics.beta;
+        self.rhs_with(model, r, |gap| pow_int_or_real(gap, beta))
+    }
+
+    /// [`InputTerms::rhs`] with `(r - r_min)^beta` for a positive gap given as `pow` (the
+    /// integrator passes the cube written out when beta is 3: the same operations as
+    /// [`pow_int_or_real`], without choosing them on every evaluation).
+    #[inline(always)]
+    pub(crate) fn rhs_with(
+        &self,
+        model: &Model,
+        r: [f64; 2],
+        pow: impl Fn(f64) -> f64,
+    ) -> [f64; 2] {
         let d = &model.dynamics;
         let s = self.s();
         let e = self.e0 * r[0] * r[1];
+        let confine = |gap: f64| if gap > 0.0 { pow(gap) } else { 0.0 };
         [
-            -self.k_b[0] * s[0] * confine(r[0] - d.r1_min, d.beta) + e - d.K_d1 * r[0],
-            -self.k_b[1] * s[1] * confine(r[1] - d.r2_min, d.beta) + e - d.K_d2 * r[1],
+            -self.k_b[0] * s[0] * confine(r[0] - d.r1_min) + e - d.K_d1 * r[0],
+            -self.k_b[1] * s[1] * confine(r[1] - d.r2_min) + e - d.K_d2 * r[1],
         ]
     }
 
@@ -242,6 +389,7 @@ impl InputTerms {
 
     /// Jacobian of (4) with respect to the inputs, d f_i / d(z_m \[m\], omega [rad/s]).
     pub fn jac_input(&self, model: &Model, r: [f64; 2]) -> [[f64; 2]; 2] {
+        debug_assert!(self.jacobian, "jac_input of terms without their Jacobian");
         let d = &model.dynamics;
         let s = self.s();
         let gaps = [r[0] - d.r1_min, r[1] - d.r2_min];

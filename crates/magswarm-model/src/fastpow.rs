@@ -145,11 +145,37 @@ static TABLES: [Slot; SLOTS] = [FREE; SLOTS];
 
 /// The table of `e`, built on first use (`None` when every slot holds another exponent, or
 /// for a NaN exponent).
+///
+/// Inline: the common case (the exponent's table built, in its first slot) is a hash, a
+/// load and two comparisons; everything else is `table_search`, which returns the same
+/// table.
+#[inline]
 pub fn table(e: f64) -> Option<&'static PowTable> {
+    let key = e.to_bits().wrapping_add(1);
+    if let Some(slot) = TABLES.get(first_slot(key)) {
+        if !e.is_nan() && slot.key.load(Ordering::Acquire) == key {
+            if let Some(t) = slot.table.get() {
+                return Some(t);
+            }
+        }
+    }
+    table_search(e)
+}
+
+/// The slot an exponent's key (its bits plus one) is looked for first.
+#[inline(always)]
+fn first_slot(key: u64) -> usize {
+    (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 59) as usize % SLOTS
+}
+
+/// [`table`]'s search: open addressing from the exponent's first slot, claiming a free
+/// slot and building the table there if no slot holds it yet.
+#[inline(never)]
+fn table_search(e: f64) -> Option<&'static PowTable> {
     let key = e.to_bits().checked_add(1).filter(|_| !e.is_nan())?;
     // Open addressing from a hash of the key: the first probe is the exponent's slot unless
     // another exponent took it.
-    let start = (key.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 59) as usize % SLOTS;
+    let start = first_slot(key);
     for j in 0..SLOTS {
         let slot = &TABLES[(start + j) % SLOTS];
         let k = slot.key.load(Ordering::Acquire);
@@ -176,7 +202,16 @@ pub fn table(e: f64) -> Option<&'static PowTable> {
 /// applies).
 #[inline]
 pub fn pow(x: f64, e: f64) -> f64 {
-    match table(e) {
+    pow_by(table(e), x, e)
+}
+
+/// [`pow`] with the table of `e` looked up beforehand (`table(e)`, kept by a caller that
+/// raises many numbers to the same exponent): the same value, without the lookup. A
+/// lookup's answer never changes (a slot, once taken, keeps its exponent), so keeping it
+/// is exact.
+#[inline]
+pub fn pow_by(table: Option<&PowTable>, x: f64, e: f64) -> f64 {
+    match table {
         Some(t) => t.pow(x),
         None => x.powf(e),
     }

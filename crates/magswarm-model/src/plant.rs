@@ -5,7 +5,7 @@
 //! only when an input actually changes. `Plant` is `Clone` and holds no heap data on the hot
 //! path, so saving and restoring an FMU state is a plain copy.
 
-use crate::dynamics::{InputTerms, KB_FLOOR};
+use crate::dynamics::{InputTerms, TermsIds, KB_FLOOR};
 use crate::integrate::{StepError, Stepper, Tolerances};
 use crate::maptable::MapTable;
 use crate::steady::SteadyPoint;
@@ -23,22 +23,37 @@ impl Model {
     /// would cut through the magnet sphere, where no extrapolation means anything, so it is
     /// bad input (like NaN), not extrapolation. The message names z_m, the limit and the
     /// validated envelope.
+    #[inline]
     pub fn check_z_m(&self, z_m: f64) -> Result<(), InputError> {
+        if self.z_m_allowed(z_m) {
+            return Ok(());
+        }
+        Err(self.z_m_refused(z_m))
+    }
+
+    /// Whether [`Model::check_z_m`] accepts z_m (finite, the swarm plane outside the magnet),
+    /// as one test for callers on a hot path.
+    #[inline]
+    pub fn z_m_allowed(&self, z_m: f64) -> bool {
+        z_m > -self.magnet.z_offset_m && z_m.is_finite()
+    }
+
+    /// Why [`Model::check_z_m`] refuses z_m.
+    #[cold]
+    #[inline(never)]
+    fn z_m_refused(&self, z_m: f64) -> InputError {
         let floor = -self.magnet.z_offset_m;
         if z_m.is_nan() {
-            return Err(InputError(format!("z_m = {z_m} is not a number")));
+            return InputError(format!("z_m = {z_m} is not a number"));
         }
-        if z_m <= floor || !z_m.is_finite() {
-            return Err(InputError(format!(
-                "z_m = {:.3} mm would put the swarm inside the magnet (z_m must exceed \
-                 {:.3} mm; validated envelope {}-{} mm)",
-                z_m * 1e3,
-                floor * 1e3,
-                self.envelope.z_min_m * 1e3,
-                self.envelope.z_max_m * 1e3
-            )));
-        }
-        Ok(())
+        InputError(format!(
+            "z_m = {:.3} mm would put the swarm inside the magnet (z_m must exceed \
+             {:.3} mm; validated envelope {}-{} mm)",
+            z_m * 1e3,
+            floor * 1e3,
+            self.envelope.z_min_m * 1e3,
+            self.envelope.z_max_m * 1e3
+        ))
     }
 
     /// Inputs the model can evaluate: z_m by [`Model::check_z_m`], omega finite.
@@ -57,7 +72,13 @@ impl Model {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Plant {
     model: Model,
+    /// The coefficients of (4) at the inputs, without their Jacobian parts (what stepping
+    /// needs: [`InputTerms::values_with_map`]).
     terms: InputTerms,
+    /// The same terms with their Jacobian, computed the first time something asks for it
+    /// at these inputs ([`Plant::outputs`], the Jacobians; a cache, emptied whenever
+    /// `terms` changes).
+    full: FullTerms,
     /// Radii (r1, r2) [mm]: the state of ODE (4).
     r: [f64; 2],
     /// Simulation time [s].
@@ -75,6 +96,25 @@ pub struct Plant {
     /// The steady map from tables ([`Plant::use_map_table`]), if asked for and the model's
     /// map is tabulable.
     map: MapSlot,
+    /// The ids of this plant's input terms (a block of its own, see `TermsIds`).
+    ids: TermsIds,
+}
+
+/// [`Plant::terms`] with their Jacobian parts, once asked for (see `Plant::full`). A cache
+/// of a deterministic function of the plant's inputs, model and map: equality ignores it.
+#[derive(Clone, Default)]
+struct FullTerms(std::cell::OnceCell<InputTerms>);
+
+impl PartialEq for FullTerms {
+    fn eq(&self, _: &FullTerms) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for FullTerms {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "FullTerms {{ computed: {} }}", self.0.get().is_some())
+    }
 }
 
 /// The plant's [`MapTable`], shared between clones. Whether a plant uses one is part of its
@@ -88,6 +128,14 @@ struct MapSlot {
     pending: u32,
     /// Built for, or adopted from a plant of, the current model; read only while `wanted`.
     table: Option<Arc<MapTable>>,
+}
+
+impl MapSlot {
+    /// The table in force for the input terms.
+    #[inline]
+    fn in_force(&self) -> Option<&MapTable> {
+        self.table.as_deref().filter(|_| self.wanted)
+    }
 }
 
 impl PartialEq for MapSlot {
@@ -157,12 +205,13 @@ pub struct PlantOutputs {
 impl Plant {
     /// A plant at rest on the steady map of the given inputs (z_m \[m\], omega [rad/s]).
     pub fn new(model: Model, z_m: f64, omega: f64) -> Plant {
-        let terms = InputTerms::new(&model, z_m, omega);
+        let terms = InputTerms::values_with_map(&model, z_m, omega, None);
         let r = terms.steady.radii();
         let plain = model.effects.is_empty();
         Plant {
             model,
             terms,
+            full: FullTerms::default(),
             r,
             t: 0.0,
             stepper: Stepper::default(),
@@ -171,6 +220,7 @@ impl Plant {
             change: [0.0; 3],
             plain,
             map: MapSlot::default(),
+            ids: TermsIds::default(),
         }
     }
 
@@ -210,7 +260,7 @@ impl Plant {
 
     /// The table in force for the input terms.
     fn map_in_force(&self) -> Option<&MapTable> {
-        self.map.table.as_deref().filter(|_| self.map.wanted)
+        self.map.in_force()
     }
 
     /// Make the table match the wish and the model, and recompute the input terms.
@@ -225,12 +275,25 @@ impl Plant {
         } else {
             MapTable::shared(&self.model)
         };
-        self.terms = InputTerms::with_map(
+        let (z_m, omega) = (self.terms.z_m, self.terms.omega);
+        let id = self.ids.take();
+        InputTerms::values_into(
+            &mut self.terms,
             &self.model,
-            self.terms.z_m,
-            self.terms.omega,
-            self.map_in_force(),
+            z_m,
+            omega,
+            self.map.in_force(),
+            id,
         );
+        self.full = FullTerms::default();
+    }
+
+    /// The input terms with their Jacobian parts (computed now if nothing asked for them
+    /// since the inputs last changed; their values are `self.terms` bit for bit).
+    fn full_terms(&self) -> &InputTerms {
+        self.full
+            .0
+            .get_or_init(|| self.terms.with_jacobian(&self.model, self.map_in_force()))
     }
 
     /// Replace the model, keeping the state, the time and the inputs (the coefficients of
@@ -281,14 +344,16 @@ impl Plant {
                 self.refresh_map(None);
             }
         }
+        self.full = FullTerms::default();
         let fx = &self.model.effects;
-        let map = self.map_in_force();
+        let map = self.map.in_force();
+        let id = self.ids.take();
         if !fx.tracks_changes() {
-            self.terms = InputTerms::with_map(&self.model, z_m, omega, map);
+            InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map, id);
             return;
         }
         let before = self.terms.steady;
-        self.terms = InputTerms::with_map(&self.model, z_m, omega, map);
+        InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map, id);
         // The step of the observed steady map this change makes, for the learned terms over
         // the time since it.
         let fx = &self.model.effects;
@@ -387,7 +452,7 @@ impl Plant {
         }
         if let Some(fl) = &self.model.effects.formation_lag {
             let wn = 1.0 / fl.tau_s;
-            let jac = self.terms.steady.jac;
+            let jac = self.full_terms().steady.jac;
             for axis in 0..2 {
                 let (x, v) = (2 + 2 * axis, 3 + 2 * axis);
                 // dx/dt = v
@@ -422,9 +487,10 @@ impl Plant {
         &mut self.tol
     }
 
-    /// The coefficients of (4) at the current inputs.
+    /// The coefficients of (4) at the current inputs, with their Jacobian parts (computed
+    /// on the first call after an input change).
     pub fn terms(&self) -> &InputTerms {
-        &self.terms
+        self.full_terms()
     }
 
     /// The plant's state without its model (see [`PlantSnapshot`]).
@@ -577,8 +643,18 @@ impl Plant {
         if self.plain {
             return self.r;
         }
-        let o = self.outputs();
-        [o.r1, o.r2]
+        self.observe_radii()
+    }
+
+    /// The radii with every enabled effect applied (the radii of [`Plant::outputs`]).
+    fn observe_radii(&self) -> [f64; 2] {
+        let fx = &self.model.effects;
+        let mut r = fx.observe(self.footprint(), self.t);
+        if fx.tracks_changes() {
+            let c = fx.since_change(self.t - self.change[0], [self.change[1], self.change[2]]);
+            r = [r[0] + c[0], r[1] + c[1]];
+        }
+        r
     }
 
     /// Whether every number of [`Plant::outputs`] that an FMU reports (radii, steady radii,
@@ -608,35 +684,61 @@ impl Plant {
         if self.plain {
             return probe(self.r, &self.terms.steady);
         }
-        let o = self.outputs();
-        probe([o.r1, o.r2], &o.steady)
+        // The values of the observed steady point do not read its Jacobian.
+        let observed = self
+            .model
+            .effects
+            .observe_steady(&self.terms.steady, self.t);
+        probe(self.observe_radii(), &observed)
     }
 
-    /// Outputs at the current instant (every enabled effect applied).
+    /// Outputs at the current instant (every enabled effect applied). The steady point's
+    /// Jacobian is computed on the first call after an input change (callers that want the
+    /// radii alone: [`Plant::observed_radii`]).
     pub fn outputs(&self) -> PlantOutputs {
         let fx = &self.model.effects;
+        let steady = &self.full_terms().steady;
         if self.plain {
             return PlantOutputs {
                 r1: self.r[0],
                 r2: self.r[1],
-                steady: self.terms.steady,
+                steady: *steady,
             };
         }
-        let mut r = fx.observe(self.footprint(), self.t);
-        if fx.tracks_changes() {
-            let c = fx.since_change(self.t - self.change[0], [self.change[1], self.change[2]]);
-            r = [r[0] + c[0], r[1] + c[1]];
-        }
+        let r = self.observe_radii();
         PlantOutputs {
             r1: r[0],
             r2: r[1],
-            steady: fx.observe_steady(&self.terms.steady, self.t),
+            steady: fx.observe_steady(steady, self.t),
         }
     }
 
     /// Validity flags of the current inputs.
     pub fn validity(&self) -> Validity {
         self.terms.steady.validity
+    }
+
+    /// Where the inputs in force stand against the validated envelope: exactly
+    /// `model.envelope.classify(z_m, omega)` (the other flags false). Without effects the
+    /// steady map classified these very inputs first thing, so its flags are taken (no
+    /// second division); an effect may evaluate the map at other inputs (a slowed rotation),
+    /// so then they are classified here.
+    #[inline]
+    pub fn envelope_validity(&self) -> Validity {
+        if !self.plain {
+            return self
+                .model
+                .envelope
+                .classify(self.terms.z_m, self.terms.omega);
+        }
+        let v = self.terms.steady.validity;
+        Validity {
+            z_below: v.z_below,
+            z_above: v.z_above,
+            f_below: v.f_below,
+            f_above: v.f_above,
+            ..Validity::default()
+        }
     }
 
     /// d(dr/dt)/dr at the current state [1/s].
@@ -646,13 +748,15 @@ impl Plant {
 
     /// d(dr/dt)/d(z_m, omega) at the current state.
     pub fn jac_input(&self) -> [[f64; 2]; 2] {
-        self.terms.jac_input(&self.model, self.r)
+        self.full_terms().jac_input(&self.model, self.r)
     }
 
     /// Smallest confinement gain allowed when scheduling (re-exported for reports).
     pub const KB_FLOOR: f64 = KB_FLOOR;
 }
 
+#[cfg(test)]
+mod lazy_jacobian_tests;
 #[cfg(test)]
 mod map_table_tests;
 #[cfg(test)]

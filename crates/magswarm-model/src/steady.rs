@@ -40,8 +40,19 @@ impl SteadyPoint {
 
 /// Normalised frequency w = |omega| / omega_ref and dw/domega.
 pub(crate) fn norm_freq(model: &Model, omega: f64) -> (f64, f64) {
+    norm_freq_with::<true>(model, omega)
+}
+
+/// [`norm_freq`], with dw/domega only `WITH_JACOBIAN` (else 0: one division less).
+#[inline(always)]
+pub(crate) fn norm_freq_with<const WITH_JACOBIAN: bool>(model: &Model, omega: f64) -> (f64, f64) {
     let omega_ref = std::f64::consts::TAU * model.steady.f_ref;
-    (omega.abs() / omega_ref, omega.signum() / omega_ref)
+    let dw = if WITH_JACOBIAN {
+        omega.signum() / omega_ref
+    } else {
+        0.0
+    };
+    (omega.abs() / omega_ref, dw)
 }
 
 /// The swarm's normalised rotation rate `(w_eff, dw_eff/domega, dw_eff/dz_m)`: w itself
@@ -57,17 +68,23 @@ pub(crate) fn swarm_rate(model: &Model, w: f64, dw: f64, field: &FieldAtSwarm) -
 /// The radii (5) r_i = C_i Phi / S_i^alpha_i and their Jacobian over (z_m, omega) from the
 /// stiffnesses `s`, their derivatives `ds` and Phi with d ln Phi / d omega: the last step of
 /// the map, shared by the exact evaluation and the map table (which must agree bit for bit
-/// where it holds the same S and Phi).
+/// where it holds the same S and Phi). The Jacobian only `WITH_JACOBIAN` (else zero); the
+/// radii are the same expressions either way. `s_alpha` is `[S_x^alpha_1, S_y^alpha_2]` ([`crate::fastpow`]'s powers; the map
+/// table looks their tables up once, not per call).
 #[inline(always)]
-pub(crate) fn radii(
+pub(crate) fn radii<const WITH_JACOBIAN: bool>(
     p: &crate::params::SteadyParams,
+    s_alpha: [f64; 2],
     s: [f64; 2],
     ds: &[[f64; 2]; 2],
     phi: f64,
     dlnphi_dw: f64,
 ) -> ([f64; 2], [[f64; 2]; 2]) {
-    let r1 = p.C_1 * phi / crate::fastpow::pow(s[0], p.alpha_1);
-    let r2 = p.C_2 * phi / crate::fastpow::pow(s[1], p.alpha_2);
+    let r1 = p.C_1 * phi / s_alpha[0];
+    let r2 = p.C_2 * phi / s_alpha[1];
+    if !WITH_JACOBIAN {
+        return ([r1, r2], [[0.0; 2]; 2]);
+    }
     let jac = [
         [
             -p.alpha_1 * r1 / s[0] * ds[0][0],
@@ -85,13 +102,14 @@ pub(crate) fn radii(
 /// e < 1: the map is only used away from omega = 0, and a finite slope keeps Newton sane).
 /// The power is [`crate::fastpow`]'s, within its proven relative bound (< 1e-13 for the
 /// paper's exponents) of the exact one.
+/// The derivative only `WITH_JACOBIAN` (else 0).
 #[inline]
-fn pow_d(x: f64, e: f64) -> (f64, f64) {
+fn pow_d<const WITH_JACOBIAN: bool>(x: f64, e: f64) -> (f64, f64) {
     if x <= 0.0 {
         (if e == 0.0 { 1.0 } else { 0.0 }, 0.0)
     } else {
         let v = crate::fastpow::pow(x, e);
-        (v, e * v / x)
+        (v, if WITH_JACOBIAN { e * v / x } else { 0.0 })
     }
 }
 
@@ -100,7 +118,30 @@ pub fn evaluate(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     if model.effects.learned.iter().any(|t| t.on_steady_map()) {
         return with_learned(model, z_m, omega);
     }
-    evaluate_core(model, z_m, omega)
+    evaluate_core::<true>(model, z_m, omega)
+}
+
+/// [`evaluate`] without the Jacobian: the same values, bit for bit (the same expressions),
+/// with `ds`, `jac` and the field's z-derivatives but `db_dz` left at 0. What an input
+/// change needs to step ODE (4); a plant computes the Jacobian when asked for it
+/// ([`crate::dynamics::InputTerms::with_jacobian`]). With an effect that acts on the map
+/// (whose rate or centroid may read the field's derivatives) this is [`evaluate`] itself.
+pub(crate) fn evaluate_values(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
+    if !plain_map(model) {
+        return evaluate(model, z_m, omega);
+    }
+    evaluate_core::<false>(model, z_m, omega)
+}
+
+/// Whether the map of `model` is the plain (5)-(7): no effect acts on it (no centroid offset,
+/// phase lag, cohesion loss or learned term on the map). Then its values never read its
+/// Jacobian (an input change of a plant skips it) and the map table can hold it.
+pub fn plain_map(model: &Model) -> bool {
+    let fx = &model.effects;
+    fx.centroid_offset.is_none()
+        && fx.phase_lag.is_none()
+        && fx.cohesion_loss.is_none()
+        && !fx.learned.iter().any(|t| t.on_steady_map())
 }
 
 /// The steady map with the learned terms that act on it (`effects.learned` along f or z_m):
@@ -145,7 +186,7 @@ fn with_learned(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
         let f_e = (f_hz - def).max(1e-6);
         let clamped = f_hz - def < 1e-6;
         let omega_e = sign * tau * f_e;
-        let mut sp = evaluate_core(model, z_m, omega_e);
+        let mut sp = evaluate_core::<true>(model, z_m, omega_e);
         // d omega_e / d z_m and d omega_e / d omega.
         let (dwe_dz, dwe_dw) = if clamped {
             (0.0, 0.0)
@@ -162,7 +203,7 @@ fn with_learned(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
         }
         sp
     } else {
-        evaluate_core(model, z_m, omega)
+        evaluate_core::<true>(model, z_m, omega)
     };
     for t in steady_terms().filter(|t| t.mode != LearnedMode::RateHz) {
         let (x, dxz, dxw, amp, damp) = arg(t, f_hz, &sp.field);
@@ -193,30 +234,29 @@ fn with_learned(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     sp
 }
 
-/// The steady map (5)-(7) with the parametric effects (no learned terms).
-fn evaluate_core(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
+/// The steady map (5)-(7) with the parametric effects (no learned terms); its Jacobian only
+/// `WITH_JACOBIAN` (the values are the same expressions either way, so they agree bit for
+/// bit). Without it, only for a map no effect acts on ([`evaluate_values`]).
+fn evaluate_core<const WITH_JACOBIAN: bool>(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     let p = &model.steady;
     let c = &model.conventions;
     let mut validity = model.envelope.classify(z_m, omega);
     let fx = &model.effects;
     let field = match &fx.centroid_offset {
-        None => model.magnet.at(z_m),
+        None => model.magnet.at_with::<WITH_JACOBIAN>(z_m),
         Some(c) => c.magnet(&model.magnet).at(z_m),
     };
-    let (w, dw) = norm_freq(model, omega);
+    let (w, dw) = norm_freq_with::<WITH_JACOBIAN>(model, omega);
 
     // Curvature terms a_K |k / unit|^gamma.
     let kx = field.k_xx.abs() / c.k_unit_t2_per_m2;
     let ky = field.k_yy.abs() / c.k_unit_t2_per_m2;
-    let (kx_g, kx_gd) = pow_d(kx, p.gamma_1);
-    let (ky_g, ky_gd) = pow_d(ky, p.gamma_2);
-    let dkx_dz = field.k_xx.signum() * field.dk_xx_dz / c.k_unit_t2_per_m2;
-    let dky_dz = field.k_yy.signum() * field.dk_yy_dz / c.k_unit_t2_per_m2;
+    let (kx_g, kx_gd) = pow_d::<WITH_JACOBIAN>(kx, p.gamma_1);
+    let (ky_g, ky_gd) = pow_d::<WITH_JACOBIAN>(ky, p.gamma_2);
 
     // Gradient term a_G (g_z / unit)^rho.
     let g = field.g_z / c.g_unit_t_per_m;
-    let (g_r, g_rd) = pow_d(g, p.rho);
-    let dg_dz = field.dg_z_dz / c.g_unit_t_per_m;
+    let (g_r, g_rd) = pow_d::<WITH_JACOBIAN>(g, p.rho);
 
     // The swarm's rotation rate: |omega| unless the `phase_lag` effect makes it step out.
     // It drives Phi (6) and the particle interaction term of (7) (the particles' own
@@ -225,8 +265,8 @@ fn evaluate_core(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
 
     // Particle term a_P (B/B_ref)^mu_P [1 + log(1 + c_P w^q_P)].
     let bn = field.b / p.B_ref;
-    let (b_mu, b_mud) = pow_d(bn, p.mu_P);
-    let (w_qp, w_qpd) = pow_d(wf, p.q_P);
+    let (b_mu, b_mud) = pow_d::<WITH_JACOBIAN>(bn, p.mu_P);
+    let (w_qp, w_qpd) = pow_d::<WITH_JACOBIAN>(wf, p.q_P);
     let mut arg = 1.0 + p.c_P * w_qp;
     let mut darg_dw = p.c_P * w_qpd;
     if arg < c.log_arg_floor {
@@ -235,22 +275,27 @@ fn evaluate_core(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
         validity.log_clamped = true;
     }
     let l = 1.0 + c.log_base.log(arg);
-    let dl_dw = c.log_base.dlog(arg) * darg_dw;
     let part = p.a_P * b_mu * l;
-    let mut dpart_dz = p.a_P * b_mud * (field.db_dz / p.B_ref) * l;
-    if dwf_dz != 0.0 {
-        dpart_dz += p.a_P * b_mu * dl_dw * dwf_dz;
-    }
-    let dpart_dw = p.a_P * b_mu * dl_dw * dwf;
-
     let common = p.s_0 + p.a_G * g_r + part;
-    let dcommon_dz = p.a_G * g_rd * dg_dz + dpart_dz;
     let raw_x = common + p.a_K1 * kx_g;
     let raw_y = common + p.a_K2 * ky_g;
-    let mut ds = [
-        [dcommon_dz + p.a_K1 * kx_gd * dkx_dz, dpart_dw],
-        [dcommon_dz + p.a_K2 * ky_gd * dky_dz, dpart_dw],
-    ];
+    let mut ds = [[0.0; 2]; 2];
+    if WITH_JACOBIAN {
+        let dkx_dz = field.k_xx.signum() * field.dk_xx_dz / c.k_unit_t2_per_m2;
+        let dky_dz = field.k_yy.signum() * field.dk_yy_dz / c.k_unit_t2_per_m2;
+        let dg_dz = field.dg_z_dz / c.g_unit_t_per_m;
+        let dl_dw = c.log_base.dlog(arg) * darg_dw;
+        let mut dpart_dz = p.a_P * b_mud * (field.db_dz / p.B_ref) * l;
+        if dwf_dz != 0.0 {
+            dpart_dz += p.a_P * b_mu * dl_dw * dwf_dz;
+        }
+        let dpart_dw = p.a_P * b_mu * dl_dw * dwf;
+        let dcommon_dz = p.a_G * g_rd * dg_dz + dpart_dz;
+        ds = [
+            [dcommon_dz + p.a_K1 * kx_gd * dkx_dz, dpart_dw],
+            [dcommon_dz + p.a_K2 * ky_gd * dky_dz, dpart_dw],
+        ];
+    }
     let s_x = if raw_x < c.s_floor {
         validity.s_floored = true;
         ds[0] = [0.0, 0.0];
@@ -279,12 +324,16 @@ fn evaluate_core(model: &Model, z_m: f64, omega: f64) -> SteadyPoint {
     };
 
     // Phi (6), at the swarm's rotation rate.
-    let (w_q, w_qd) = pow_d(wf, p.q);
+    let (w_q, w_qd) = pow_d::<WITH_JACOBIAN>(wf, p.q);
     let phi = (p.N * (w_q - 1.0)).exp();
     let dlnphi_dw = p.N * w_qd * dwf;
 
-    let ([r1, r2], mut jac) = radii(p, [s_x, s_y], &ds, phi, dlnphi_dw);
-    if dwf_dz != 0.0 {
+    let s_alpha = [
+        crate::fastpow::pow(s_x, p.alpha_1),
+        crate::fastpow::pow(s_y, p.alpha_2),
+    ];
+    let ([r1, r2], mut jac) = radii::<WITH_JACOBIAN>(p, s_alpha, [s_x, s_y], &ds, phi, dlnphi_dw);
+    if WITH_JACOBIAN && dwf_dz != 0.0 {
         let dlnphi_dz = p.N * w_qd * dwf_dz;
         jac[0][0] += r1 * dlnphi_dz;
         jac[1][0] += r2 * dlnphi_dz;

@@ -335,8 +335,8 @@ pub fn track(
         let sp = [(seg.r1 * 1e-3) * 1e3, (seg.r2 * 1e-3) * 1e3];
         for i in 0..count {
             // The plant's radii as an FMI master reads them (m) and the controller uses them (mm).
-            let r = plant.outputs();
-            let y = [(r.r1 * 1e-3) * 1e3, (r.r2 * 1e-3) * 1e3];
+            let r = plant.observed_radii();
+            let y = [(r[0] * 1e-3) * 1e3, (r[1] * 1e-3) * 1e3];
             if k == 0 {
                 ctrl.reset(START.0, START.1, y);
             }

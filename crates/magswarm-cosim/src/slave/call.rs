@@ -52,6 +52,7 @@ mod sealed {
 
 impl Scalar for f64 {
     const VAR_TYPE: crate::VarType = crate::VarType::Real;
+    #[inline]
     unsafe fn set(api: &Api, c: Ptr, vrs: &[u32], v: &[f64]) -> Call {
         let n = vrs.len();
         match api {
@@ -63,6 +64,7 @@ impl Scalar for f64 {
             }),
         }
     }
+    #[inline]
     unsafe fn get(api: &Api, c: Ptr, vrs: &[u32], v: &mut [f64]) -> Call {
         let n = vrs.len();
         match api {
@@ -232,6 +234,7 @@ impl Api {
     }
 
     /// `doStep`; FMI 3.0 also reports the last successful time (written to `last`).
+    #[inline]
     pub(crate) unsafe fn do_step(
         &self,
         c: Ptr,

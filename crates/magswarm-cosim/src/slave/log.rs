@@ -84,6 +84,7 @@ impl LogBuffer {
         self.count.fetch_add(1, Ordering::Release);
     }
 
+    #[inline]
     pub(crate) fn mark(&self) -> usize {
         self.count.load(Ordering::Acquire)
     }

@@ -153,11 +153,15 @@ impl FmuSlave {
 
     /// The function table this instance calls (for benchmarks that call the C ABI directly
     /// with [`FmuSlave::component`]).
+    #[inline]
     pub fn api(&self) -> &Api {
         &self.fmu.inner.api
     }
 
-    /// Run one raw call and turn its status into a result with what the FMU logged.
+    /// Run one raw call and turn its status into a result with what the FMU logged. Inline
+    /// (with the calls over it that a co-simulation makes every step), the error path out of
+    /// line: a master loop pays for the call and a test of its status.
+    #[inline]
     fn run(&self, call: impl FnOnce(&Api, Ptr) -> Call) -> Result<Status> {
         let mark = self.log.mark();
         let (function, raw) = call(self.api(), self.component);
@@ -165,11 +169,18 @@ impl FmuSlave {
         if status.is_success() {
             Ok(status)
         } else {
-            Err(CosimError::Fmi {
-                function,
-                status,
-                message: join_messages(&self.log.since(mark)),
-            })
+            Err(self.failed(function, status, mark))
+        }
+    }
+
+    /// The error of a call that did not succeed, with what the FMU logged since `mark`.
+    #[cold]
+    #[inline(never)]
+    fn failed(&self, function: &'static str, status: Status, mark: usize) -> CosimError {
+        CosimError::Fmi {
+            function,
+            status,
+            message: join_messages(&self.log.since(mark)),
         }
     }
 
@@ -271,11 +282,13 @@ impl FmuSlave {
     }
 
     /// `DoStep(t, h, noSetFMUStatePriorToCurrentPoint = true)`.
+    #[inline]
     pub fn do_step(&mut self, current_time: f64, step: f64) -> Result<Status> {
         self.do_step_with(current_time, step, true)
     }
 
     /// `DoStep` with an explicit `noSetFMUStatePriorToCurrentPoint`.
+    #[inline]
     pub fn do_step_with(
         &mut self,
         current_time: f64,
@@ -316,17 +329,23 @@ impl FmuSlave {
 
     // ------------------------------------------------------------------------- values
 
+    #[inline]
     fn same_len(a: usize, b: usize) -> Result<()> {
         if a == b {
             Ok(())
         } else {
-            Err(CosimError::Usage(format!(
-                "{a} value references but {b} values"
-            )))
+            Err(Self::different_lengths(a, b))
         }
     }
 
+    #[cold]
+    #[inline(never)]
+    fn different_lengths(a: usize, b: usize) -> CosimError {
+        CosimError::Usage(format!("{a} value references but {b} values"))
+    }
+
     /// Set values of one type (`f64`: Real / Float64, `i32`: Integer / Int32, `bool`).
+    #[inline]
     pub fn set<T: Scalar>(&mut self, vrs: &[u32], values: &[T]) -> Result<Status> {
         Self::same_len(vrs.len(), values.len())?;
         // SAFETY: live instance, arrays of the same length.
@@ -334,6 +353,7 @@ impl FmuSlave {
     }
 
     /// Get values of one type into `values`.
+    #[inline]
     pub fn get<T: Scalar>(&mut self, vrs: &[u32], values: &mut [T]) -> Result<Status> {
         Self::same_len(vrs.len(), values.len())?;
         // SAFETY: live instance, arrays of the same length.
@@ -355,11 +375,13 @@ impl FmuSlave {
     }
 
     /// Set Reals ([`FmuSlave::set`] for `f64`).
+    #[inline]
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Result<Status> {
         self.set(vrs, values)
     }
 
     /// Get Reals into `values`.
+    #[inline]
     pub fn get_real(&mut self, vrs: &[u32], values: &mut [f64]) -> Result<Status> {
         self.get(vrs, values)
     }

@@ -157,47 +157,54 @@ impl Num for Iv {
 /// the fourth derivative over the range directly).
 pub const ORDER: usize = 5;
 
-/// A truncated Taylor series `sum_k c[k] (x - x0)^k`, k = 0..=[`ORDER`], over a [`Num`].
+/// A truncated Taylor series `sum_k c[k] (x - x0)^k`, k = 0..N-1 (by default N =
+/// [`ORDER`] + 1), over a [`Num`].
+///
+/// Coefficient k of every operation is computed from the operands' coefficients 0..=k
+/// alone, by the same operations whatever N is: a jet of fewer coefficients gives the
+/// first coefficients of a longer one bit for bit. The map table's nodes need the value
+/// and the slope only (N = 2), the midpoint of its centred form the fourth coefficient
+/// (N = 5): both are computed with no more coefficients than they use.
 #[derive(Debug, Clone, Copy)]
-pub struct Jet<T>(pub [T; ORDER + 1]);
+pub struct Jet<T, const N: usize = { ORDER + 1 }>(pub [T; N]);
 
-impl<T: Num> Jet<T> {
+impl<T: Num, const N: usize> Jet<T, N> {
     /// The variable itself at `x` (slope 1).
-    pub fn var(x: T) -> Jet<T> {
-        let mut j = [T::c(0.0); ORDER + 1];
+    pub fn var(x: T) -> Jet<T, N> {
+        let mut j = [T::c(0.0); N];
         j[0] = x;
         j[1] = T::c(1.0);
         Jet(j)
     }
-    pub(super) fn cst(x: f64) -> Jet<T> {
-        let mut j = [T::c(0.0); ORDER + 1];
+    pub(super) fn cst(x: f64) -> Jet<T, N> {
+        let mut j = [T::c(0.0); N];
         j[0] = T::c(x);
         Jet(j)
     }
-    pub(super) fn add(self, o: Jet<T>) -> Jet<T> {
+    pub(super) fn add(self, o: Jet<T, N>) -> Jet<T, N> {
         Jet(std::array::from_fn(|k| self.0[k].add(o.0[k])))
     }
-    pub(super) fn sub(self, o: Jet<T>) -> Jet<T> {
+    pub(super) fn sub(self, o: Jet<T, N>) -> Jet<T, N> {
         Jet(std::array::from_fn(|k| self.0[k].sub(o.0[k])))
     }
-    pub(super) fn addc(self, x: f64) -> Jet<T> {
+    pub(super) fn addc(self, x: f64) -> Jet<T, N> {
         let mut j = self;
         j.0[0] = j.0[0].add(T::c(x));
         j
     }
-    pub(super) fn scale(self, x: f64) -> Jet<T> {
+    pub(super) fn scale(self, x: f64) -> Jet<T, N> {
         Jet(self.0.map(|a| a.mul(T::c(x))))
     }
-    pub(super) fn mul(self, o: Jet<T>) -> Jet<T> {
+    pub(super) fn mul(self, o: Jet<T, N>) -> Jet<T, N> {
         Jet(std::array::from_fn(|k| {
             (1..=k).fold(self.0[0].mul(o.0[k]), |s, i| {
                 s.add(self.0[i].mul(o.0[k - i]))
             })
         }))
     }
-    pub(super) fn div(self, o: Jet<T>) -> Option<Jet<T>> {
-        let mut q = [T::c(0.0); ORDER + 1];
-        for k in 0..=ORDER {
+    pub(super) fn div(self, o: Jet<T, N>) -> Option<Jet<T, N>> {
+        let mut q = [T::c(0.0); N];
+        for k in 0..N {
             let mut s = self.0[k];
             for i in 1..=k {
                 s = s.sub(o.0[i].mul(q[k - i]));
@@ -206,10 +213,10 @@ impl<T: Num> Jet<T> {
         }
         Some(Jet(q))
     }
-    pub(super) fn exp(self) -> Jet<T> {
-        let mut y = [T::c(0.0); ORDER + 1];
+    pub(super) fn exp(self) -> Jet<T, N> {
+        let mut y = [T::c(0.0); N];
         y[0] = self.0[0].exp();
-        for k in 1..=ORDER {
+        for k in 1..N {
             let mut s = T::c(0.0);
             for j in 1..=k {
                 // (j / k) a_j y_{k-j}
@@ -219,10 +226,10 @@ impl<T: Num> Jet<T> {
         }
         Jet(y)
     }
-    pub(super) fn ln(self) -> Option<Jet<T>> {
-        let mut y = [T::c(0.0); ORDER + 1];
+    pub(super) fn ln(self) -> Option<Jet<T, N>> {
+        let mut y = [T::c(0.0); N];
         y[0] = self.0[0].ln()?;
-        for k in 1..=ORDER {
+        for k in 1..N {
             let mut s = T::c(0.0);
             for j in 1..k {
                 s = s.add(T::c(j as f64).mul(y[j]).mul(self.0[k - j]));
@@ -233,11 +240,11 @@ impl<T: Num> Jet<T> {
         Some(Jet(y))
     }
     /// x^e of a positive x: `k a_0 y_k = sum_{j=1..k} ((e + 1) j - k) a_j y_{k-j}`.
-    pub(super) fn powf(self, e: f64) -> Option<Jet<T>> {
-        let mut y = [T::c(0.0); ORDER + 1];
+    pub(super) fn powf(self, e: f64) -> Option<Jet<T, N>> {
+        let mut y = [T::c(0.0); N];
         y[0] = self.0[0].powf(e)?;
         let e1 = T::c(e).add(T::c(1.0));
-        for k in 1..=ORDER {
+        for k in 1..N {
             let mut s = T::c(0.0);
             for j in 1..=k {
                 let c = e1.mul(T::c(j as f64)).sub(T::c(k as f64));
@@ -247,7 +254,7 @@ impl<T: Num> Jet<T> {
         }
         Some(Jet(y))
     }
-    pub(super) fn abs(self) -> Option<Jet<T>> {
+    pub(super) fn abs(self) -> Option<Jet<T, N>> {
         match self.0[0].sign()? {
             true => Some(self),
             false => Some(Jet(self.0.map(|a| T::c(0.0).sub(a)))),

@@ -78,6 +78,12 @@ pub use interval::{Iv, Jet, Num, ORDER};
 /// G_x, G_y, P as functions of the depth d \[m\] (the closed forms of [`crate::field`] and the
 /// powers of [`crate::steady`]).
 pub fn depth_part<T: Num>(model: &Model, d: Jet<T>) -> Option<[Jet<T>; 3]> {
+    depth_part_n(model, d)
+}
+
+/// [`depth_part`] over jets of N coefficients (see [`Jet`]: the first coefficients are
+/// the same for any N).
+pub fn depth_part_n<T: Num, const N: usize>(model: &Model, d: Jet<T, N>) -> Option<[Jet<T, N>; 3]> {
     let p = &model.steady;
     let c = &model.conventions;
     let k = model.magnet.dipole_k();
@@ -119,6 +125,14 @@ pub fn depth_part<T: Num>(model: &Model, d: Jet<T>) -> Option<[Jet<T>; 3]> {
 /// L and Phi as functions of w = |omega| / omega_ref. `None` where the logarithm's argument
 /// reaches the floor of the conventions (the exact code clamps there).
 pub fn frequency_part<T: Num>(model: &Model, w: Jet<T>) -> Option<[Jet<T>; 2]> {
+    frequency_part_n(model, w)
+}
+
+/// [`frequency_part`] over jets of N coefficients.
+pub fn frequency_part_n<T: Num, const N: usize>(
+    model: &Model,
+    w: Jet<T, N>,
+) -> Option<[Jet<T, N>; 2]> {
     let p = &model.steady;
     let c = &model.conventions;
     let arg = w.powf(p.q_P)?.scale(p.c_P).addc(1.0);
@@ -137,6 +151,16 @@ pub fn frequency_part<T: Num>(model: &Model, w: Jet<T>) -> Option<[Jet<T>; 2]> {
 
 // ---------------------------------------------------------------------------------------
 // One axis: cells indexed by the top bits of the variable.
+
+/// The K functions of an axis, evaluated three ways for building a cell, each with as many
+/// Taylor coefficients as it uses (the coefficients it uses are those of the full jet, bit
+/// for bit: [`Jet`]): at a node over f64 (value and slope), over the cell over intervals
+/// (up to the fifth coefficient), at the cell's midpoint over intervals (up to the fourth).
+struct Parts<'a, const K: usize> {
+    node: &'a dyn Fn(Jet<f64, 2>) -> Option<[Jet<f64, 2>; K]>,
+    range: &'a dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
+    mid: &'a dyn Fn(Jet<Iv, 5>) -> Option<[Jet<Iv, 5>; K]>,
+}
 
 /// One cell: the cubic of each function in the local coordinate t in [0, 1).
 #[derive(Debug, Clone, Copy)]
@@ -198,15 +222,10 @@ impl<const K: usize> Axis<K> {
     /// Build cell `i` of `f` (written over f64 for the nodes, over intervals for the bound).
     #[cold]
     #[inline(never)]
-    fn build(
-        &self,
-        i: usize,
-        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
-        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
-    ) -> (Cell<K>, CellBound<K>) {
+    fn build(&self, i: usize, f: &Parts<'_, K>) -> (Cell<K>, CellBound<K>) {
         let (a, b) = (self.edge(i), self.edge(i + 1));
         let h = b - a;
-        let node = |x: f64| f64_f(Jet::var(x)).map(|js| js.map(|j| [j.0[0], j.0[1]]));
+        let node = |x: f64| (f.node)(Jet::var(x)).map(|js| js.map(|j| [j.0[0], j.0[1]]));
         let mid = 0.5 * (a + b);
         let mut cell = Cell {
             lo: a,
@@ -218,7 +237,8 @@ impl<const K: usize> Axis<K> {
             value: [f64::INFINITY; K],
             slope: [f64::INFINITY; K],
         };
-        let (Some(na), Some(nb), Some(enc)) = (node(a), node(b), iv_f(Jet::var(Iv::new(a, b))))
+        let (Some(na), Some(nb), Some(enc)) =
+            (node(a), node(b), (f.range)(Jet::var(Iv::new(a, b))))
         else {
             return (cell, bound);
         };
@@ -269,7 +289,7 @@ impl<const K: usize> Axis<K> {
             cell.ok = true;
             return (cell, b);
         }
-        if let Some(at) = iv_f(Jet::var(Iv::new(mid, mid))) {
+        if let Some(at) = (f.mid)(Jet::var(Iv::new(mid, mid))) {
             let m4 =
                 std::array::from_fn(|k| 24.0 * at[k].0[4].mag() + 60.0 * h * enc[k].0[5].mag());
             let (b, ok) = judge(m4, 1.0);
@@ -281,48 +301,45 @@ impl<const K: usize> Axis<K> {
 
     /// The cell holding x (built now if it was not), if tabulated and interpolated.
     #[inline]
+    /// `build` builds cell i ([`Axis::build`] with the functions; only called for a cell
+    /// not built yet, so the hot path never assembles them).
     fn cell(
         &self,
         x: f64,
-        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
-        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
+        build: impl FnOnce(usize) -> (Cell<K>, CellBound<K>),
     ) -> Option<(usize, &(Cell<K>, CellBound<K>))> {
         // Negative x, NaN and infinities index far past the end.
         let i = (x.to_bits() >> self.shift).wrapping_sub(self.base) as usize;
         let slot = self.cells.get(i)?;
         let c = match slot.get() {
             Some(c) => c,
-            None => slot.get_or_init(|| self.build(i, f64_f, iv_f)),
+            None => slot.get_or_init(|| build(i)),
         };
         c.0.ok.then_some((i, c))
     }
 
     /// Build every cell; (cells, interpolated).
-    fn build_all(
-        &self,
-        f64_f: &dyn Fn(Jet<f64>) -> Option<[Jet<f64>; K]>,
-        iv_f: &dyn Fn(Jet<Iv>) -> Option<[Jet<Iv>; K]>,
-    ) -> [usize; 2] {
+    fn build_all(&self, f: &Parts<'_, K>) -> [usize; 2] {
         let ok = (0..self.cells.len())
-            .filter(|&i| {
-                self.cells[i]
-                    .get_or_init(|| self.build(i, f64_f, iv_f))
-                    .0
-                    .ok
-            })
+            .filter(|&i| self.cells[i].get_or_init(|| self.build(i, f)).0.ok)
             .count();
         [self.cells.len(), ok]
     }
 }
 
 impl<const K: usize> Cell<K> {
-    /// Values and derivatives (d/dx) of the K functions at x in this cell.
+    /// Values and derivatives (d/dx) of the K functions at x in this cell (the derivatives
+    /// only `WITH_JACOBIAN`, else 0; the values are the same expressions either way).
     #[inline]
-    fn eval(&self, x: f64) -> [(f64, f64); K] {
+    fn eval<const WITH_JACOBIAN: bool>(&self, x: f64) -> [(f64, f64); K] {
         let t = (x - self.lo) * self.inv_h;
         self.coef.map(|[f0, s0, c2, c3]| {
             let v = f0 + t * (s0 + t * (c2 + t * c3));
-            let d = (s0 + t * (2.0 * c2 + 3.0 * c3 * t)) * self.inv_h;
+            let d = if WITH_JACOBIAN {
+                (s0 + t * (2.0 * c2 + 3.0 * c3 * t)) * self.inv_h
+            } else {
+                0.0
+            };
             (v, d)
         })
     }
@@ -359,15 +376,14 @@ pub struct MapTable {
     model: Model,
     depth: Axis<3>,
     freq: Axis<2>,
+    /// `fastpow::table` of alpha_1 and alpha_2, looked up once (see [`crate::fastpow::pow_by`]).
+    alpha_pow: [Option<&'static crate::fastpow::PowTable>; 2],
 }
 
-/// Whether the map of `model` is the plain (5)-(7) that the tables hold: no effect acts on it.
+/// Whether the map of `model` is the plain (5)-(7) that the tables hold: no effect acts on it
+/// ([`steady::plain_map`]).
 pub fn tabulable(model: &Model) -> bool {
-    let fx = &model.effects;
-    fx.centroid_offset.is_none()
-        && fx.phase_lag.is_none()
-        && fx.cohesion_loss.is_none()
-        && !fx.learned.iter().any(|t| t.on_steady_map())
+    steady::plain_map(model)
 }
 
 impl MapTable {
@@ -390,11 +406,16 @@ impl MapTable {
         let f_ref = model.steady.f_ref;
         let (w_lo, w_hi) = (0.5 * e.f_min_hz.max(0.05) / f_ref, 2.0 * e.f_max_hz / f_ref);
         let freq = Axis::new(FREQ_BITS, w_lo, w_hi)?;
+        let p = &model.steady;
         Some(MapTable {
             key: Key::of(model),
             model: model.clone(),
             depth,
             freq,
+            alpha_pow: [
+                crate::fastpow::table(p.alpha_1),
+                crate::fastpow::table(p.alpha_2),
+            ],
         })
     }
 
@@ -430,18 +451,34 @@ impl MapTable {
     #[inline]
     fn depth_cell(&self, d: f64) -> Option<&(Cell<3>, CellBound<3>)> {
         let m = &self.model;
-        self.depth
-            .cell(d, &|j| depth_part(m, j), &|j| depth_part(m, j))
-            .map(|(_, c)| c)
+        let build = |i| {
+            self.depth.build(
+                i,
+                &Parts {
+                    node: &|j| depth_part_n(m, j),
+                    range: &|j| depth_part_n(m, j),
+                    mid: &|j| depth_part_n(m, j),
+                },
+            )
+        };
+        self.depth.cell(d, build).map(|(_, c)| c)
     }
 
     /// The frequency cell holding w (built if needed), if interpolated.
     #[inline]
     fn freq_cell(&self, w: f64) -> Option<&(Cell<2>, CellBound<2>)> {
         let m = &self.model;
-        self.freq
-            .cell(w, &|j| frequency_part(m, j), &|j| frequency_part(m, j))
-            .map(|(_, c)| c)
+        let build = |i| {
+            self.freq.build(
+                i,
+                &Parts {
+                    node: &|j| frequency_part_n(m, j),
+                    range: &|j| frequency_part_n(m, j),
+                    mid: &|j| frequency_part_n(m, j),
+                },
+            )
+        };
+        self.freq.cell(w, build).map(|(_, c)| c)
     }
 
     /// Whether this table was built for `model`'s map.
@@ -458,29 +495,83 @@ impl MapTable {
             .unwrap_or_else(|| steady::evaluate(model, z_m, omega))
     }
 
+    /// [`MapTable::evaluate`] into `out`, with the Jacobian (`ds`, `jac` and the field's
+    /// z-derivatives but `db_dz`) only `WITH_JACOBIAN`, else left at 0: the same values bit
+    /// for bit (the same expressions; where the table does not answer,
+    /// [`steady::evaluate_values`]). Written in place: an input change builds the point where
+    /// the plant keeps it, without copying it.
+    #[inline]
+    pub(crate) fn evaluate_into<const WITH_JACOBIAN: bool>(
+        &self,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        out: &mut SteadyPoint,
+    ) {
+        if !self.interpolate_into::<WITH_JACOBIAN>(model, z_m, omega, out) {
+            *out = if WITH_JACOBIAN {
+                steady::evaluate(model, z_m, omega)
+            } else {
+                steady::evaluate_values(model, z_m, omega)
+            };
+        }
+    }
+
+    /// The map from the tables, with its Jacobian (`None` where they do not answer).
     fn interpolate(&self, model: &Model, z_m: f64, omega: f64) -> Option<SteadyPoint> {
+        let mut sp = SteadyPoint::default();
+        self.interpolate_into::<true>(model, z_m, omega, &mut sp)
+            .then_some(sp)
+    }
+
+    /// The map from the tables into `out`, with the Jacobian only `WITH_JACOBIAN` (the
+    /// values are the same expressions either way); false (and `out` untouched) where the
+    /// tables do not answer.
+    #[inline(always)]
+    fn interpolate_into<const WITH_JACOBIAN: bool>(
+        &self,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        out: &mut SteadyPoint,
+    ) -> bool {
         let p = &model.steady;
         let c = &model.conventions;
         let d = model.magnet.depth(z_m);
-        let (w, dw) = steady::norm_freq(model, omega);
-        let zc = &self.depth_cell(d)?.0;
-        let wc = &self.freq_cell(w)?.0;
-        let [(gx, dgx), (gy, dgy), (part, dpart)] = zc.eval(d);
-        let [(l, dl), (phi, dphi)] = wc.eval(w);
+        let (w, dw) = steady::norm_freq_with::<WITH_JACOBIAN>(model, omega);
+        let Some((zc, _)) = self.depth_cell(d) else {
+            return false;
+        };
+        let Some((wc, _)) = self.freq_cell(w) else {
+            return false;
+        };
+        let [(gx, dgx), (gy, dgy), (part, dpart)] = zc.eval::<WITH_JACOBIAN>(d);
+        let [(l, dl), (phi, dphi)] = wc.eval::<WITH_JACOBIAN>(w);
         let pl = part * l;
         let (s_x, s_y) = (gx + pl, gy + pl);
         // Near the floor the exact code decides (it flags the point).
         let near = c.s_floor * (1.0 + 1e-6);
         if !(s_x > near && s_y > near) {
-            return None;
+            return false;
         }
-        let dpl_dz = dpart * l;
-        let dpl_dw = part * dl * dw;
-        let ds = [[dgx + dpl_dz, dpl_dw], [dgy + dpl_dz, dpl_dw]];
-        let dlnphi_dw = dphi / phi * dw;
-        let ([r1, r2], jac) = steady::radii(p, [s_x, s_y], &ds, phi, dlnphi_dw);
-        Some(SteadyPoint {
-            field: model.magnet.at(z_m),
+        let (ds, dlnphi_dw) = if WITH_JACOBIAN {
+            let dpl_dz = dpart * l;
+            let dpl_dw = part * dl * dw;
+            (
+                [[dgx + dpl_dz, dpl_dw], [dgy + dpl_dz, dpl_dw]],
+                dphi / phi * dw,
+            )
+        } else {
+            ([[0.0; 2]; 2], 0.0)
+        };
+        let s_alpha = [
+            crate::fastpow::pow_by(self.alpha_pow[0], s_x, p.alpha_1),
+            crate::fastpow::pow_by(self.alpha_pow[1], s_y, p.alpha_2),
+        ];
+        let ([r1, r2], jac) =
+            steady::radii::<WITH_JACOBIAN>(p, s_alpha, [s_x, s_y], &ds, phi, dlnphi_dw);
+        *out = SteadyPoint {
+            field: model.magnet.at_with::<WITH_JACOBIAN>(z_m),
             s_x,
             s_y,
             phi,
@@ -489,7 +580,8 @@ impl MapTable {
             ds,
             jac,
             validity: model.envelope.classify(z_m, omega),
-        })
+        };
+        true
     }
 
     /// A proven bound on |r_i(table) - r_i(exact formula)| \[mm\] at an operating point, from
@@ -497,13 +589,16 @@ impl MapTable {
     /// G_i, P, L and Phi propagated through `r = C Phi S^-alpha` to first order, doubled
     /// for the second-order terms, plus 1e-13 relative for the final arithmetic.
     pub fn bound(&self, model: &Model, z_m: f64, omega: f64) -> Option<[f64; 2]> {
-        let sp = self.interpolate(model, z_m, omega)?;
+        let mut sp = SteadyPoint::default();
+        if !self.interpolate_into::<false>(model, z_m, omega, &mut sp) {
+            return None;
+        }
         let d = model.magnet.depth(z_m);
         let (w, _) = steady::norm_freq(model, omega);
         let (zc, zb) = self.depth_cell(d)?;
         let (wc, wb) = self.freq_cell(w)?;
-        let [_, _, (part, _)] = zc.eval(d);
-        let [(l, _), (phi, _)] = wc.eval(w);
+        let [_, _, (part, _)] = zc.eval::<false>(d);
+        let [(l, _), (phi, _)] = wc.eval::<false>(w);
         let (bz, bw) = (zb.value, wb.value);
         let ds_common = bz[2] * l.abs() + (part.abs() + bz[2]) * bw[0];
         let p = &model.steady;
@@ -522,10 +617,16 @@ impl MapTable {
     pub fn coverage(&self) -> ([usize; 2], [usize; 2]) {
         let m = &self.model;
         (
-            self.depth
-                .build_all(&|j| depth_part(m, j), &|j| depth_part(m, j)),
-            self.freq
-                .build_all(&|j| frequency_part(m, j), &|j| frequency_part(m, j)),
+            self.depth.build_all(&Parts {
+                node: &|j| depth_part_n(m, j),
+                range: &|j| depth_part_n(m, j),
+                mid: &|j| depth_part_n(m, j),
+            }),
+            self.freq.build_all(&Parts {
+                node: &|j| frequency_part_n(m, j),
+                range: &|j| frequency_part_n(m, j),
+                mid: &|j| frequency_part_n(m, j),
+            }),
         )
     }
 }

@@ -22,6 +22,44 @@ fn interval_jets_enclose_the_f64_jets() {
     }
 }
 
+/// A jet of fewer coefficients is the start of the full one, bit for bit (what lets a cell's
+/// nodes be computed with two coefficients and its midpoint with five): over the depth and
+/// frequency ranges of the table, in f64 and in intervals, on points and on ranges.
+#[test]
+fn short_jets_are_the_start_of_the_full_jets_bit_for_bit() {
+    let m = Model::paper();
+    let bits = |x: f64| x.to_bits();
+    let same_iv = |a: Iv, b: Iv| bits(a.lo) == bits(b.lo) && bits(a.hi) == bits(b.hi);
+    for i in 0..200 {
+        let d = 0.015 + 0.0002 * i as f64;
+        let w = 0.02 + 0.013 * i as f64;
+        let full = depth_part(&m, Jet::var(d)).unwrap();
+        let two = depth_part_n::<f64, 2>(&m, Jet::var(d)).unwrap();
+        let fw = frequency_part(&m, Jet::var(w)).unwrap();
+        let fw2 = frequency_part_n::<f64, 2>(&m, Jet::var(w)).unwrap();
+        for (a, b) in full.iter().zip(&two).chain(fw.iter().zip(&fw2)) {
+            assert_eq!(
+                a.0[..2].iter().map(|&x| bits(x)).collect::<Vec<_>>(),
+                b.0.map(bits)
+            );
+        }
+        for x in [Iv::new(d, d), Iv::new(d, d * (1.0 + 1.0 / 1024.0))] {
+            let full = depth_part(&m, Jet::var(x)).unwrap();
+            let five = depth_part_n::<Iv, 5>(&m, Jet::var(x)).unwrap();
+            for (a, b) in full.iter().zip(&five) {
+                assert!((0..5).all(|c| same_iv(a.0[c], b.0[c])), "depth {d}");
+            }
+        }
+        for x in [Iv::new(w, w), Iv::new(w, w * (1.0 + 1.0 / 256.0))] {
+            let full = frequency_part(&m, Jet::var(x)).unwrap();
+            let five = frequency_part_n::<Iv, 5>(&m, Jet::var(x)).unwrap();
+            for (a, b) in full.iter().zip(&five) {
+                assert!((0..5).all(|c| same_iv(a.0[c], b.0[c])), "frequency {w}");
+            }
+        }
+    }
+}
+
 #[test]
 fn node_slopes_are_the_derivatives() {
     let m = Model::paper();
