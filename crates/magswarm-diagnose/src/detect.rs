@@ -16,13 +16,13 @@
 //! the alternative achieves, studentised by the visit noise of the residual the alternative
 //! leaves ([`super::noise::Roughness`]): a structure that inflates the visit noise of the
 //! current residual (a loss of particles makes returns to a point differ) is judged against
-//! the noise left once it is fitted, an F-type ratio. Its null distribution comes from logs of pure noise with the log's
-//! design (visits, rows, sessions) and noise structure (visit offsets and row noise, per axis),
-//! each refitted and re-estimated exactly as the real one. No assumption of independent rows
-//! and no reliance on repeat visits: the roughness of the residual surface gives the visit
-//! noise when each point is visited once. A family's p-value is the smallest of its
-//! alternatives' (Bonferroni within), the gap's the smallest family's (Bonferroni over the
-//! families).
+//! the noise left once it is fitted, an F-type ratio. Its null distribution comes from logs
+//! of pure noise with the log's design (visits, rows, sessions) and noise structure (visit
+//! offsets and row noise, per axis), each refitted and re-estimated exactly as the real one.
+//! No assumption of independent rows and no reliance on repeat visits: the roughness of the
+//! residual surface gives the visit noise when each point is visited once. A family's p-value
+//! is the smallest of its alternatives', the gap's the smallest of all, each calibrated by the
+//! same simulations (the min-p method).
 
 use super::data::Dataset;
 use super::linear::{self, Design, Solver};
