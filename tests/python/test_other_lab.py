@@ -9,7 +9,11 @@ scored like the blind check (docs/diagnose.md):
   withheld excess removed by augmented.json in `magswarm predict`;
 - a Latin hypercube of operating points without any effect: nothing named;
 - the same design with a slow loss of particles: particle_drift named first, half of the
-  withheld excess removed.
+  withheld excess removed;
+- the seed's grid with rows 0.6-32 s after each change, a particle drift and a formation
+  effect together: the drift, significant over session time while no stretch of the session
+  stands out on its own, was once declared a gap and then left without a region, a candidate
+  table or a name; now the session is its region and particle_drift is named.
 
 Needs target/release/magswarm (`cargo build --release`); skips without it, fails under CI.
 """
@@ -29,12 +33,13 @@ def other(tmp_path_factory):
     magswarm_exe_or_skip()
     score = blind_script("score")
     results = {}
-    for seed, kinds in ((103, "phase_reversal"), (101, "null,drift_slow_loss")):
+    for seed, kinds in ((103, "phase_reversal"), (101, "null,drift_slow_loss"),
+                        (202, "pair_formation_drift")):
         out = tmp_path_factory.mktemp(f"other{seed}")
         subprocess.run([sys.executable, str(BLIND / "gen_other_lab.py"), "--seed", str(seed),
                         "--only", kinds, "--out", str(out)], check=True, capture_output=True)
         for scn in json.loads((out / "truth.json").read_text())["scenarios"]:
-            if scn["protocol"] not in ("steps", "lhs"):
+            if scn["protocol"] not in ("steps", "lhs", "grid_spread"):
                 continue
             res = score.run_one(scn, out, out / "diag", [])
             assert res["rc"] == 0, f"diagnose failed on {scn['name']}: {res['stderr']}"
@@ -57,3 +62,10 @@ def test_a_slow_loss_on_a_latin_hypercube_is_a_drift(other):
     scn, res, s = other["drift_slow_loss"]
     assert s["named"][:1] == ["particle_drift"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
     assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"
+
+
+def test_a_significant_drift_without_a_standout_stretch_is_weighed_and_named(other):
+    scn, res, s = other["pair_formation_drift"]
+    assert res["report"]["gap"]["significant"], f"{scn['name']}: no gap declared"
+    assert s["candidates"], f"{scn['name']}: a gap declared and no candidate weighed"
+    assert "particle_drift" in s["named"], f"{scn['name']}: named {s['named']}; {s['candidates']}"

@@ -225,6 +225,28 @@ pub fn localise(
                 });
             }
         }
+        // The drift family is significant but no stretch of the session stands out on its own
+        // against the visit noise (a course that the smooth alternative follows across the
+        // whole session, whose visit noise it inflates): the session as a whole is the
+        // region, on the radius whose strongest stretch comes closest, so that the
+        // candidates are still weighed rather than the gap left without a place.
+        if !out.iter().any(|r| r.kind == Kind::Drift) {
+            if let Some(c) = cands.iter().min_by(|x, y| x.4.total_cmp(&y.4)) {
+                let t0 = t.iter().copied().fold(f64::INFINITY, f64::min);
+                let t1 = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                out.push(Region {
+                    kind: Kind::Drift,
+                    axis: c.0,
+                    z: zfull,
+                    f: ffull,
+                    t: Some((t0, t1)),
+                    since: None,
+                    mean: c.3,
+                    p: gt.drift_p[c.0].min(1.0),
+                    visits: (0..nv).collect(),
+                });
+            }
+        }
     }
     if gt.families.contains(&"formation") {
         for a in 0..2 {
@@ -254,6 +276,23 @@ pub fn localise(
                 mean: stats::mean(&s),
                 p: (gt.trans_p[a] * 2.0).min(1.0),
                 visits: vs,
+            });
+        }
+    }
+    // A significant gap always has a place: where no family's search isolates one, the
+    // structure over the inputs on both radii (never a gap declared and then left unweighed).
+    if out.is_empty() && gt.significant {
+        for a in 0..2 {
+            out.push(Region {
+                kind: Kind::Pattern,
+                axis: a,
+                z: zfull,
+                f: ffull,
+                t: None,
+                since: None,
+                mean: pattern_rms(ds, res, a),
+                p: gt.p_value.min(1.0),
+                visits: (0..nv).collect(),
             });
         }
     }
