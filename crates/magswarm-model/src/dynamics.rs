@@ -351,9 +351,9 @@ impl InputTerms {
     }
 
     /// Every number [`InputTerms::rhs`] reads besides the state: two right-hand sides with
-    /// equal keys are the same function. The integrator uses it to recognise a step it has
-    /// already taken (see `integrate::RestMemo`); whoever adds a term to `rhs` adds what it
-    /// reads here.
+    /// equal keys are the same function (the tests compare terms by it; the integrator's
+    /// memos name a right-hand side by [`InputTerms::id`] instead, see
+    /// `integrate::RestMemo`); whoever adds a term to `rhs` adds what it reads here.
     #[inline]
     pub fn rhs_key(&self, model: &Model) -> [f64; 10] {
         let d = &model.dynamics;
