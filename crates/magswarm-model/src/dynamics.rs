@@ -174,6 +174,21 @@ impl InputTerms {
         }
     }
 
+    /// [`InputTerms::values_into`] for a model without effects (`model.effects` empty, so
+    /// [`crate::maptable::tabulable`]): the same computation, without asking.
+    #[inline]
+    pub(crate) fn plain_values_into(
+        out: &mut InputTerms,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+        id: TermsId,
+    ) {
+        debug_assert!(model.effects.is_empty());
+        Self::build_into::<false>(out, model, z_m, omega, map, id)
+    }
+
     /// [`InputTerms::values_into`] as a value.
     pub(crate) fn values_with_map(
         model: &Model,

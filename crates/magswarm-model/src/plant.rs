@@ -342,6 +342,13 @@ impl Plant {
         }
         self.full = FullTerms::default();
         let id = self.ids.take();
+        if self.plain {
+            // No effect: the map is one the table may answer and no term tracks changes
+            // (what `values_into` and `tracks_changes` would find out first).
+            let map = self.map.in_force();
+            InputTerms::plain_values_into(&mut self.terms, &self.model, z_m, omega, map, id);
+            return;
+        }
         if self.model.effects.tracks_changes() {
             return self.change_inputs_tracked(z_m, omega, id);
         }
