@@ -59,11 +59,19 @@ static HOOK: std::sync::Once = std::sync::Once::new();
 /// never write to its host's stderr; the message reaches the importer through the logger
 /// instead. Panics elsewhere go to the previous hook. In the FMU's own shared library this
 /// hook belongs to the library's private copy of std, so the host's hook is not touched.
+#[inline]
 fn quiet_panics() {
-    // Every call after the first: one atomic load.
-    if HOOK.is_completed() {
-        return;
+    // Every call after the first: one atomic load, inline in the entry point.
+    if !HOOK.is_completed() {
+        install_quiet_hook();
     }
+}
+
+/// The first call of [`quiet_panics`] (and calls while the thread is panicking): install
+/// the hook, out of line.
+#[cold]
+#[inline(never)]
+fn install_quiet_hook() {
     // `set_hook` panics when called while the thread is panicking (e.g. a Rust host freeing
     // instances while unwinding): try again at a later call.
     if std::thread::panicking() {
@@ -83,6 +91,7 @@ fn quiet_panics() {
 }
 
 /// `catch_unwind` with the quiet hook in force: the panic barrier of every entry point.
+#[inline]
 pub fn barrier<R>(f: impl FnOnce() -> R) -> std::thread::Result<R> {
     quiet_panics();
     // One thread-local lookup for both the increment and the decrement (in a shared library

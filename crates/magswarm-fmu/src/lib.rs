@@ -448,15 +448,21 @@ impl FmuModel for MagSwarm {
         self.check_outputs()
     }
 
+    #[inline(always)]
     fn step(&mut self, ctx: &mut Ctx<'_>, current_time: f64, step: f64) -> Result<(), ModelError> {
         let unchanged = [self.z_m.to_bits(), self.omega.to_bits()] == self.checked;
-        if !unchanged {
-            // The plant takes the new inputs and classifies them against the envelope (the
-            // classification `check_envelope` makes, without making it twice).
-            let v = self.plant().envelope_validity();
+        // The plant takes the inputs (built first if need be), once: nothing below changes
+        // them.
+        let plant = self.plant();
+        // At new inputs, their classification against the envelope (the one
+        // `check_envelope` makes, without making it twice).
+        let v = (!unchanged).then(|| plant.envelope_validity());
+        if let Some(v) = v {
             self.warn_envelope(ctx, v);
         }
-        let plant = self.plant();
+        let Some(plant) = self.plant.as_mut() else {
+            unreachable!("MagSwarm::plant builds the plant")
+        };
         // The plant's clock is the FMU's (time-dependent effects such as particle drift).
         plant.set_time(current_time);
         if let Err(e) = plant.step(step) {
@@ -563,6 +569,7 @@ impl FmuModel for MagSwarm {
         })
     }
 
+    #[inline(always)]
     fn get_reals(&mut self, vrs: &[u32], out: &mut [f64]) -> Result<(), (u32, ModelError)> {
         // A master reads r1 and r2 together: the plant is looked at once for both (and when
         // they are all it reads, with no other case on the way).

@@ -174,6 +174,21 @@ impl InputTerms {
         }
     }
 
+    /// [`InputTerms::values_into`] for a model without effects (`model.effects` empty, so
+    /// [`crate::maptable::tabulable`]): the same computation, without asking.
+    #[inline]
+    pub(crate) fn plain_values_into(
+        out: &mut InputTerms,
+        model: &Model,
+        z_m: f64,
+        omega: f64,
+        map: Option<&MapTable>,
+        id: TermsId,
+    ) {
+        debug_assert!(model.effects.is_empty());
+        Self::build_into::<false>(out, model, z_m, omega, map, id)
+    }
+
     /// [`InputTerms::values_into`] as a value.
     pub(crate) fn values_with_map(
         model: &Model,
@@ -351,9 +366,9 @@ impl InputTerms {
     }
 
     /// Every number [`InputTerms::rhs`] reads besides the state: two right-hand sides with
-    /// equal keys are the same function. The integrator uses it to recognise a step it has
-    /// already taken (see `integrate::RestMemo`); whoever adds a term to `rhs` adds what it
-    /// reads here.
+    /// equal keys are the same function (the tests compare terms by it; the integrator's
+    /// memos name a right-hand side by [`InputTerms::id`] instead, see
+    /// `integrate::RestMemo`); whoever adds a term to `rhs` adds what it reads here.
     #[inline]
     pub fn rhs_key(&self, model: &Model) -> [f64; 10] {
         let d = &model.dynamics;

@@ -62,14 +62,67 @@ impl Default for Stepper {
 /// deterministic function of (state, step size, right-hand side, tolerances), so once such a
 /// step has been taken, the same step again is known without evaluating it: this memo holds
 /// its inputs and its step-size factor, and `advance` replays it (same state, same step
-/// counts, same next step size; only the arithmetic is skipped). It is a cache: equality
-/// ignores it, snapshots do not carry it (a restored plant recomputes the step once).
+/// counts, same next step size; only the arithmetic is skipped). The right-hand side is
+/// named by the terms' id ([`InputTerms::id`], as the other two memos name it: the same id
+/// is the same computation, so the same function), not by its coefficients: a memo made
+/// under other terms is simply not used (the step is computed, to the same bits). It is a
+/// cache: equality ignores it, snapshots do not carry it (a restored plant recomputes the
+/// step once).
 ///
 /// It also keeps the last stage of the last accepted step (`FirstStage`): the first stage
 /// of the next communication step, when that starts where this one ended under the same
 /// right-hand side.
+///
+/// And the products of the last step size with the method's coefficients (`Scaled`).
 #[derive(Debug, Clone, Copy, Default)]
-pub struct RestMemo(Option<Rest>, Option<CommStep>, Option<FirstStage>);
+pub struct RestMemo(
+    Option<Rest>,
+    Option<CommStep>,
+    Option<FirstStage>,
+    Option<Scaled>,
+);
+
+/// The products `hs * a_ij` (stages 2 to 6) and `hs * b_i` (the fifth-order solution) of a
+/// step size `hs`, each held twice (once per component, so that a stage multiplies both
+/// components by one load). A step computes `y + (hs * a_ij) * k_j` as before; the products
+/// are the same numbers whether made in the step or kept from the last step of the same
+/// size (a master's communication step after an input change is one step of the same
+/// size every time).
+#[derive(Debug, Clone, Copy)]
+struct Scaled {
+    hs: u64,
+    a: [[f64; 2]; 15],
+    b: [[f64; 2]; 5],
+}
+
+const A: [f64; 15] = [
+    A21, A31, A32, A41, A42, A43, A51, A52, A53, A54, A61, A62, A63, A64, A65,
+];
+const B: [f64; 5] = [B1, B3, B4, B5, B6];
+
+impl Scaled {
+    /// The products for `hs`, made here unless they are those of the last step.
+    #[inline(always)]
+    fn of(slot: &mut Option<Scaled>, hs: f64) -> &Scaled {
+        if !matches!(slot, Some(c) if c.hs == hs.to_bits()) {
+            *slot = Some(Scaled::new(hs));
+        }
+        match slot {
+            Some(c) => c,
+            None => unreachable!("set above"),
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn new(hs: f64) -> Scaled {
+        Scaled {
+            hs: hs.to_bits(),
+            a: A.map(|a| [hs * a; 2]),
+            b: B.map(|b| [hs * b; 2]),
+        }
+    }
+}
 
 /// f(y) at the state `y` (bits) a communication step ended in, under the right-hand side of
 /// the terms `id` ([`InputTerms::id`]): Dormand-Prince's last stage of an accepted step is
@@ -101,9 +154,10 @@ struct CommStep {
 
 #[derive(Debug, Clone, Copy)]
 struct Rest {
+    /// The terms' id (never 0: default terms, made by no computation, are never remembered).
+    id: u64,
     y: [f64; 2],
     hs: f64,
-    key: [f64; 10],
     tol: [f64; 3],
     factor: f64,
 }
@@ -121,15 +175,9 @@ impl RestMemo {
     }
 
     #[inline]
-    fn factor_for(
-        &self,
-        y: &[f64; 2],
-        hs: f64,
-        key: impl FnOnce() -> [f64; 10],
-        tol: &[f64; 3],
-    ) -> Option<f64> {
+    fn factor_for(&self, id: u64, y: &[f64; 2], hs: f64, tol: &[f64; 3]) -> Option<f64> {
         match &self.0 {
-            Some(r) if r.hs == hs && r.y == *y && r.tol == *tol && r.key == key() => Some(r.factor),
+            Some(r) if r.id == id && r.hs == hs && r.y == *y && r.tol == *tol => Some(r.factor),
             _ => None,
         }
     }
@@ -192,12 +240,14 @@ const E5: f64 = -17253.0 / 339200.0;
 const E6: f64 = 22.0 / 525.0;
 const E7: f64 = -1.0 / 40.0;
 
-#[inline]
-fn axpy(y: [f64; 2], k: &[[f64; 2]], a: &[f64], h: f64) -> [f64; 2] {
+/// `y + sum_j ha_j k_j`, with `ha_j = hs * a_j` from [`Scaled`] (the same products, in the
+/// same order, as `y + hs * a_j * k_j`).
+#[inline(always)]
+fn axpy(y: [f64; 2], k: &[[f64; 2]], ha: &[[f64; 2]]) -> [f64; 2] {
     let mut o = y;
-    for (ki, ai) in k.iter().zip(a) {
-        o[0] += h * ai * ki[0];
-        o[1] += h * ai * ki[1];
+    for (ki, hai) in k.iter().zip(ha) {
+        o[0] += hai[0] * ki[0];
+        o[1] += hai[1] * ki[1];
     }
     o
 }
@@ -234,6 +284,7 @@ impl Stepper {
     ///
     /// The right-hand side is autonomous between input changes (inputs are held over a
     /// communication step, as FMI co-simulation prescribes), so time only counts steps.
+    #[inline]
     pub fn advance(
         &mut self,
         model: &Model,
@@ -252,10 +303,10 @@ impl Stepper {
         // stages, which LLVM then keeps in registers.
         if model.dynamics.beta == 3.0 {
             let f = |r: [f64; 2]| terms.rhs_with(model, r, |g| g * g * g);
-            self.advance_with(f, model, terms, y, t, h_comm, tol)
+            self.advance_with(f, terms, y, t, h_comm, tol)
         } else {
             let f = |r: [f64; 2]| terms.rhs(model, r);
-            self.advance_with(f, model, terms, y, t, h_comm, tol)
+            self.advance_with(f, terms, y, t, h_comm, tol)
         }
     }
 
@@ -265,7 +316,6 @@ impl Stepper {
     fn advance_with(
         &mut self,
         f: impl Fn([f64; 2]) -> [f64; 2],
-        model: &Model,
         terms: &InputTerms,
         y: &mut [f64; 2],
         t: f64,
@@ -277,9 +327,7 @@ impl Stepper {
         let mut all_rest = true;
         let mut done = 0.0;
         let mut h = self.h_next.min(tol.h_max).min(h_comm);
-        // The right-hand side's key (`InputTerms::rhs_key`), read only when a rest step is
-        // remembered or made.
-        let key = || terms.rhs_key(model);
+        let id = terms.id();
         // k1 = f(y), computed only when a step is actually evaluated (or kept from the last
         // step, see `FirstStage`).
         let mut k1_slot: Option<[f64; 2]> = match &self.rest.2 {
@@ -296,7 +344,7 @@ impl Stepper {
             if n > tol.max_steps {
                 return Err(StepError::TooManySteps { t: t + done });
             }
-            if let Some(factor) = self.rest.factor_for(y, hs, key, &tol_key) {
+            if let Some(factor) = self.rest.factor_for(id, y, hs, &tol_key) {
                 // The same accepted step as remembered: y stays, k1 = f(y) stays.
                 done = if last { h_comm } else { done + hs };
                 self.steps += 1;
@@ -308,24 +356,24 @@ impl Stepper {
             }
             all_rest = false;
             let k1 = *k1_slot.get_or_insert_with(|| f(*y));
-            let k2 = f(axpy(*y, &[k1], &[A21], hs));
-            let k3 = f(axpy(*y, &[k1, k2], &[A31, A32], hs));
-            let k4 = f(axpy(*y, &[k1, k2, k3], &[A41, A42, A43], hs));
-            let k5 = f(axpy(*y, &[k1, k2, k3, k4], &[A51, A52, A53, A54], hs));
-            let k6 = f(axpy(
-                *y,
-                &[k1, k2, k3, k4, k5],
-                &[A61, A62, A63, A64, A65],
-                hs,
-            ));
-            let y5 = axpy(*y, &[k1, k3, k4, k5, k6], &[B1, B3, B4, B5, B6], hs);
+            let c = Scaled::of(&mut self.rest.3, hs);
+            let k2 = f(axpy(*y, &[k1], &c.a[0..1]));
+            let k3 = f(axpy(*y, &[k1, k2], &c.a[1..3]));
+            let k4 = f(axpy(*y, &[k1, k2, k3], &c.a[3..6]));
+            let k5 = f(axpy(*y, &[k1, k2, k3, k4], &c.a[6..10]));
+            let k6 = f(axpy(*y, &[k1, k2, k3, k4, k5], &c.a[10..15]));
+            let y5 = axpy(*y, &[k1, k3, k4, k5, k6], &c.b);
             let k7 = f(y5);
             let _ = (C2, C3, C4, C5); // stage times: the right-hand side is autonomous
             let mut err = 0.0f64;
             for i in 0..2 {
                 let e = hs
                     * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i]);
-                let sc = tol.atol + tol.rtol * y[i].abs().max(y5[i].abs());
+                // max(|y|, |y5|) without f64::max's NaN rule: a NaN y5 (or y, which makes
+                // y5 NaN) takes the non-finite branch below whatever err is, so both give
+                // the same step.
+                let (a, b) = (y[i].abs(), y5[i].abs());
+                let sc = tol.atol + tol.rtol * if a >= b { a } else { b };
                 err = err.max((e / sc).abs());
             }
             if !err.is_finite() || !y5[0].is_finite() || !y5[1].is_finite() {
@@ -351,17 +399,17 @@ impl Stepper {
                 (0.9 * crate::fastpow::pow(err, -0.2)).clamp(0.2, 5.0)
             };
             if err <= 1.0 {
-                self.rest.0 = if y5 == *y {
-                    Some(Rest {
+                if y5 == *y && id != 0 {
+                    self.rest.0 = Some(Rest {
+                        id,
                         y: y5,
                         hs,
-                        key: key(),
                         tol: tol_key,
                         factor,
-                    })
-                } else {
-                    None
-                };
+                    });
+                } else if self.rest.0.is_some() {
+                    self.rest.0 = None;
+                }
                 *y = y5;
                 k1_slot = Some(k7);
                 done = if last { h_comm } else { done + hs };
@@ -382,24 +430,24 @@ impl Stepper {
         // Whatever k1 holds now is f at the state the step ended in (an accepted step's
         // last stage, or f(y) of a state that did not move).
         self.rest.2 = k1_slot.map(|k1| FirstStage {
-            id: terms.id(),
+            id,
             y: y.map(f64::to_bits),
             k1,
         });
         // A step of nothing but replayed rest steps is remembered whole (see `CommStep`).
-        self.rest.1 = if all_rest && *y == y_in && self.rejected == rejected_in {
-            Some(CommStep {
-                id: terms.id(),
+        if all_rest && *y == y_in && self.rejected == rejected_in {
+            self.rest.1 = Some(CommStep {
+                id,
                 y: y_in,
                 h_in,
                 h_comm,
                 tol: tol_key,
                 d_steps: self.steps - steps_in,
                 h_out: self.h_next,
-            })
-        } else {
-            None
-        };
+            });
+        } else if self.rest.1.is_some() {
+            self.rest.1 = None;
+        }
         Ok(())
     }
 }

@@ -5,7 +5,7 @@
 //! only when an input actually changes. `Plant` is `Clone` and holds no heap data on the hot
 //! path, so saving and restoring an FMU state is a plain copy.
 
-use crate::dynamics::{InputTerms, TermsIds, KB_FLOOR};
+use crate::dynamics::{InputTerms, TermsId, TermsIds, KB_FLOOR};
 use crate::integrate::{StepError, Stepper, Tolerances};
 use crate::maptable::MapTable;
 use crate::steady::SteadyPoint;
@@ -338,20 +338,41 @@ impl Plant {
     #[inline(never)]
     fn change_inputs(&mut self, z_m: f64, omega: f64) {
         if self.map.pending > 0 {
-            self.map.pending -= 1;
-            if self.map.pending == 0 {
-                self.map.wanted = true;
-                self.refresh_map(None);
-            }
+            self.count_down_map();
         }
         self.full = FullTerms::default();
-        let fx = &self.model.effects;
-        let map = self.map.in_force();
         let id = self.ids.take();
-        if !fx.tracks_changes() {
-            InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map, id);
+        if self.plain {
+            // No effect: the map is one the table may answer and no term tracks changes
+            // (what `values_into` and `tracks_changes` would find out first).
+            let map = self.map.in_force();
+            InputTerms::plain_values_into(&mut self.terms, &self.model, z_m, omega, map, id);
             return;
         }
+        if self.model.effects.tracks_changes() {
+            return self.change_inputs_tracked(z_m, omega, id);
+        }
+        let map = self.map.in_force();
+        InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map, id);
+    }
+
+    /// One input change fewer before the map table comes into force (out of line: the
+    /// first changes of a plant only).
+    #[inline(never)]
+    fn count_down_map(&mut self) {
+        self.map.pending -= 1;
+        if self.map.pending == 0 {
+            self.map.wanted = true;
+            self.refresh_map(None);
+        }
+    }
+
+    /// [`Plant::change_inputs`] with effects that track input changes (learned terms over
+    /// the time since the last change), out of line so that the plain change is a short
+    /// function.
+    #[inline(never)]
+    fn change_inputs_tracked(&mut self, z_m: f64, omega: f64, id: TermsId) {
+        let map = self.map.in_force();
         let before = self.terms.steady;
         InputTerms::values_into(&mut self.terms, &self.model, z_m, omega, map, id);
         // The step of the observed steady map this change makes, for the learned terms over

@@ -13,7 +13,7 @@ impl<M: FmuModel> Instance<M> {
     ///
     /// The arguments are checked in one test on the way in; only a refused step goes to
     /// `Instance::refuse_step` to find out which rule it broke and say so.
-    #[inline]
+    #[inline(always)]
     pub fn do_step(&mut self, f: &'static str, current: f64, step: f64) -> Status {
         let t = self.shell.time;
         let next = current + step;

@@ -45,17 +45,23 @@ pub unsafe fn fmi3_do_step<M: FmuModel>(
 ) -> Fmi3Status {
     let f = Func::DoStep;
     let body = |i: &mut Instance<M>| {
-        for (p, name) in [
-            (event_handling_needed, "eventHandlingNeeded"),
-            (terminate_simulation, "terminateSimulation"),
-            (early_return, "earlyReturn"),
-        ] {
-            if p.is_null() {
-                return null_arg(i, f, name);
-            }
-        }
-        if last_successful_time.is_null() {
-            return null_arg(i, f, "lastSuccessfulTime");
+        // One test of the four output pointers on the way in; which one is NULL is looked
+        // for only when one is (in the order of the arguments).
+        if event_handling_needed.is_null()
+            || terminate_simulation.is_null()
+            || early_return.is_null()
+            || last_successful_time.is_null()
+        {
+            let name = if event_handling_needed.is_null() {
+                "eventHandlingNeeded"
+            } else if terminate_simulation.is_null() {
+                "terminateSimulation"
+            } else if early_return.is_null() {
+                "earlyReturn"
+            } else {
+                "lastSuccessfulTime"
+            };
+            return null_arg(i, f, name);
         }
         let s = i.do_step(
             f.name(),
