@@ -10,14 +10,6 @@
 //! f), in which any structure that is smooth along at least one input cancels. A robust scale
 //! (MAD) of the pooled differences keeps a band or a local bump, which spoils a minority of
 //! the differences, from inflating it.
-//!
-//! Rows of a camera log are seldom independent: a tracker smooths, the swarm's shape wanders
-//! slowly within a visit. The row noise is modelled as a first-order autoregression within
-//! each visit (per axis: SD `within`, lag-one correlation `row_rho`), estimated from the
-//! robust scales of lag-one and lag-two differences (`var(d2) / var(d1) = 1 + rho`), and the
-//! simulated logs carry it. With independent rows simulated for a log whose rows are
-//! correlated, every within-visit alternative (a transient judged against the row noise)
-//! would see structure in pure noise.
 
 use super::data::Dataset;
 use super::stats;
@@ -30,8 +22,6 @@ use rand_distr::{Distribution, StandardNormal};
 pub struct Noise {
     /// SD of one row around its visit's mean.
     pub within: [f64; 2],
-    /// Lag-one correlation of successive rows within a visit (0: independent rows).
-    pub row_rho: [f64; 2],
     /// SD of a visit's mean of settled rows around the truth.
     pub visit: [f64; 2],
     /// SD of the visit-to-visit offset (visit noise less the within part of a mean).
@@ -92,86 +82,38 @@ pub fn cells(ds: &Dataset) -> (Vec<(usize, usize)>, usize, usize) {
     (c, zb.len(), fb.len())
 }
 
-/// Fewest lag-two differences the rows' correlation is estimated from (else independent).
-pub const MIN_RHO_PAIRS: usize = 20;
-
-/// Correlations below this are taken as independent rows (the estimate's own scatter on a
-/// log of independent rows; it keeps such logs' simulations exactly as before).
-pub const RHO_DEAD_ZONE: f64 = 0.2;
-
-/// Largest lag-one correlation used (beyond it the rows of a visit are one slow wander).
-pub const RHO_MAX: f64 = 0.9;
-
-/// Variance of the mean of `n` successive rows of a first-order autoregression with
-/// correlation `rho` and unit variance.
-pub fn ar_mean_var(rho: f64, n: f64) -> f64 {
-    let n = n.max(1.0);
-    if rho == 0.0 {
-        return 1.0 / n;
-    }
-    let k = n.round().max(1.0) as usize;
-    let mut s = 1.0;
-    let mut p = 1.0;
-    for j in 1..k {
-        p *= rho;
-        s += 2.0 * (1.0 - j as f64 / k as f64) * p;
-    }
-    s / k as f64
-}
-
-/// The row noise's SD and lag-one correlation from the lag-one differences `d1` and lag-two
-/// differences `d2` of rows within visits: `var(d1) = 2 sd^2 (1 - rho)`, `var(d2) = 2 sd^2
-/// (1 - rho^2)`, so `var(d2) / var(d1) = 1 + rho` (robust scales, so that an outlier row or a
-/// visit's jump spoils few differences). Correlations in the dead zone count as none.
-pub fn row_ar(d1: &[f64], d2: &[f64]) -> (f64, f64) {
-    let s1 = mad0(d1);
-    let mut rho = 0.0;
-    if d2.len() >= MIN_RHO_PAIRS && s1 > 0.0 {
-        let r = (mad0(d2) / s1).powi(2) - 1.0;
-        if r >= RHO_DEAD_ZONE {
-            rho = r.min(RHO_MAX);
-        }
-    }
-    (s1 / (2.0 * (1.0 - rho)).sqrt(), rho)
-}
-
 /// Estimate the noise from a model's row residuals \[mm\] (`res`; its structure mostly cancels).
 pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
-    // Row noise: lag-one and lag-two differences of settled rows within a visit (a visit's
-    // offset and any slow transient cancel).
+    // Row noise: successive differences of settled rows within a visit.
     let mut within = [0.0; 2];
-    let mut row_rho = [0.0; 2];
     let mut settled_n = 0usize;
     for a in 0..2 {
-        let (mut d1, mut d2) = (Vec::new(), Vec::new());
+        let mut d = Vec::new();
         for v in 0..ds.visits.len() {
             let rows = ds.settled_rows(v);
             if a == 0 {
                 settled_n += rows.len().max(1);
             }
             for w in rows.windows(2) {
-                d1.push(res[w[1]][a] - res[w[0]][a]);
-            }
-            for w in rows.windows(3) {
-                d2.push(res[w[2]][a] - res[w[0]][a]);
+                d.push(res[w[1]][a] - res[w[0]][a]);
             }
         }
-        if d1.len() < 10 {
-            continue;
-        }
-        (within[a], row_rho[a]) = row_ar(&d1, &d2);
+        within[a] = if d.len() >= 10 {
+            mad0(&d) / std::f64::consts::SQRT_2
+        } else {
+            0.0
+        };
     }
     let rows_per_visit = settled_n as f64 / ds.visits.len().max(1) as f64;
     let rough = Roughness::new(ds);
     let visit = rough.visit_sd(res)?;
     let mut between = [0.0; 2];
     for a in 0..2 {
-        let part = within[a].powi(2) * ar_mean_var(row_rho[a], rows_per_visit);
+        let part = within[a].powi(2) / rows_per_visit.max(1.0);
         between[a] = (visit[a].powi(2) - part).max(0.1 * visit[a].powi(2)).sqrt();
     }
     Ok(Noise {
         within,
-        row_rho,
         visit,
         between,
         rows_per_visit,
@@ -350,8 +292,7 @@ fn mad0(x: &[f64]) -> f64 {
 }
 
 /// A simulated log of pure noise with the data's structure: weighted stacked rows
-/// (`w[a] x (visit offset + row noise)`, the row noise a first-order autoregression within
-/// each visit), replicate `rep` of the stream `seed`.
+/// (`w[a] x (visit offset + row noise)`), replicate `rep` of the stream `seed`.
 pub fn simulate(ds: &Dataset, nz: &Noise, w: [f64; 2], seed: u64, rep: usize) -> DVector<f64> {
     let mut rng = rand::rngs::StdRng::seed_from_u64(
         seed ^ 0x5EED_B007 ^ (rep as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
@@ -360,21 +301,11 @@ pub fn simulate(ds: &Dataset, nz: &Noise, w: [f64; 2], seed: u64, rep: usize) ->
     let off: Vec<[f64; 2]> = (0..ds.visits.len())
         .map(|_| [g() * nz.between[0], g() * nz.between[1]])
         .collect();
-    let innov = nz.row_rho.map(|r| (1.0 - r * r).sqrt());
-    // The last row noise of each visit (None before its first row).
-    let mut last: Vec<Option<[f64; 2]>> = vec![None; ds.visits.len()];
     let mut y = DVector::zeros(2 * ds.rows.len());
     for (i, r) in ds.rows.iter().enumerate() {
-        let mut e = [0.0; 2];
         for a in 0..2 {
-            let u = g() * nz.within[a];
-            e[a] = match last[r.visit] {
-                Some(p) if nz.row_rho[a] > 0.0 => nz.row_rho[a] * p[a] + innov[a] * u,
-                _ => u,
-            };
-            y[2 * i + a] = w[a] * (off[r.visit][a] + e[a]);
+            y[2 * i + a] = w[a] * (off[r.visit][a] + g() * nz.within[a]);
         }
-        last[r.visit] = Some(e);
     }
     y
 }
@@ -403,45 +334,6 @@ pub fn boot_p(obs: f64, null: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Rows of an AR(1) within visits of 10 rows: (lag-one, lag-two differences).
-    fn ar_rows(rho: f64, sd: f64, visits: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
-        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
-        let (mut d1, mut d2) = (Vec::new(), Vec::new());
-        for _ in 0..visits {
-            let mut e: Vec<f64> = Vec::new();
-            for k in 0..10 {
-                let g: f64 = StandardNormal.sample(&mut rng);
-                let x = if k == 0 {
-                    sd * g
-                } else {
-                    rho * e[k - 1] + (1.0 - rho * rho).sqrt() * sd * g
-                };
-                e.push(x);
-            }
-            d1.extend(e.windows(2).map(|w| w[1] - w[0]));
-            d2.extend(e.windows(3).map(|w| w[2] - w[0]));
-        }
-        (d1, d2)
-    }
-
-    #[test]
-    fn correlated_rows_are_recognised_and_their_sd_is_the_marginal_one() {
-        let (d1, d2) = ar_rows(0.6, 0.2, 200, 1);
-        let (sd, rho) = row_ar(&d1, &d2);
-        assert!((rho - 0.6).abs() < 0.1, "rho {rho}");
-        assert!((sd - 0.2).abs() < 0.02, "sd {sd}");
-        // Independent rows: no correlation (the dead zone), the SD of successive
-        // differences over sqrt 2, as before.
-        let (d1, d2) = ar_rows(0.0, 0.2, 200, 2);
-        let (sd, rho) = row_ar(&d1, &d2);
-        assert_eq!(rho, 0.0);
-        assert_eq!(sd, mad0(&d1) / std::f64::consts::SQRT_2);
-        // The variance of a visit's mean grows with the correlation.
-        assert!((ar_mean_var(0.0, 10.0) - 0.1).abs() < 1e-12);
-        assert!(ar_mean_var(0.6, 10.0) > 2.5 * ar_mean_var(0.0, 10.0));
-        assert!(ar_mean_var(0.6, 10.0) < 1.0);
-    }
 
     #[test]
     fn bootstrap_p_is_empirical_inside_and_extrapolated_beyond() {
