@@ -270,3 +270,11 @@ def magswarm_exe_or_skip() -> pathlib.Path:
             pytest.fail(msg, pytrace=False)
         pytest.skip(msg)
     return exe
+
+
+def diagnose_scored(score, scn: dict, logdir: pathlib.Path):
+    """Diagnose one generated log with the release binary and score it (`score` is the
+    scripts/blind/score.py module): (scenario, run result, score); fails where diagnose does."""
+    res = score.run_one(scn, logdir, logdir / "diag", [])
+    assert res["rc"] == 0, f"diagnose failed on {scn['name']}: {res['stderr']}"
+    return scn, res, score.score(res)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import blind_script, magswarm_exe_or_skip
+from conftest import blind_script, diagnose_scored, magswarm_exe_or_skip
 
 
 @pytest.fixture(scope="module")
@@ -27,9 +27,7 @@ def blind(tmp_path_factory):
     truths = gen.generate(1, out, only={"null_single", "phase_band_single", "anomaly_3visits"})
     results = {}
     for scn in truths:
-        res = score.run_one(scn, out, out / "diag", [])
-        assert res["rc"] == 0, f"diagnose failed on {scn['name']}: {res['stderr']}"
-        results[scn["kind"]] = (scn, res, score.score(res))
+        results[scn["kind"]] = diagnose_scored(score, scn, out)
     return results
 
 

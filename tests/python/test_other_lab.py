@@ -25,7 +25,7 @@ import sys
 
 import pytest
 
-from conftest import BLIND, blind_script, magswarm_exe_or_skip
+from conftest import BLIND, blind_script, diagnose_scored, magswarm_exe_or_skip
 
 
 @pytest.fixture(scope="module")
@@ -41,9 +41,7 @@ def other(tmp_path_factory):
         for scn in json.loads((out / "truth.json").read_text())["scenarios"]:
             if scn["protocol"] not in ("steps", "lhs", "grid_spread"):
                 continue
-            res = score.run_one(scn, out, out / "diag", [])
-            assert res["rc"] == 0, f"diagnose failed on {scn['name']}: {res['stderr']}"
-            results[scn["kind"]] = (scn, res, score.score(res))
+            results[scn["kind"]] = diagnose_scored(score, scn, out)
     return results
 
 

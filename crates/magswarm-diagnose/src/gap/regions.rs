@@ -66,6 +66,18 @@ pub fn localise(
     let zfull = (zs[0], zs[zs.len() - 1]);
     let ffull = (fs[0], fs[fs.len() - 1]);
     let mut out = Vec::new();
+    // Structure over the inputs that no single box isolates: every visit, radius `a`.
+    let pattern = |a: usize, p: f64| Region {
+        kind: Kind::Pattern,
+        axis: a,
+        z: zfull,
+        f: ffull,
+        t: None,
+        since: None,
+        mean: pattern_rms(ds, res, a),
+        p: p.min(1.0),
+        visits: (0..nv).collect(),
+    };
     if gt.families.contains(&"inputs") || gt.families.contains(&"lack_of_fit") {
         let zb = level_bins(&zs, 8);
         let fb = level_bins(&fs, 10);
@@ -170,18 +182,7 @@ pub fn localise(
         let has = out.iter().any(|r| r.axis == a && r.kind == Kind::Inputs);
         let k = 2.0 * gt.families.len().max(1) as f64;
         if !has && gt.families.contains(&"inputs") && gt.space_p[a] * k < 0.05 {
-            let vs: Vec<usize> = (0..nv).collect();
-            out.push(Region {
-                kind: Kind::Pattern,
-                axis: a,
-                z: zfull,
-                f: ffull,
-                t: None,
-                since: None,
-                mean: pattern_rms(ds, res, a),
-                p: (gt.space_p[a] * k).min(1.0),
-                visits: vs,
-            });
+            out.push(pattern(a, gt.space_p[a] * k));
         }
     }
     if gt.families.contains(&"drift") {
@@ -282,19 +283,7 @@ pub fn localise(
     // A significant gap always has a place: where no family's search isolates one, the
     // structure over the inputs on both radii (never a gap declared and then left unweighed).
     if out.is_empty() && gt.significant {
-        for a in 0..2 {
-            out.push(Region {
-                kind: Kind::Pattern,
-                axis: a,
-                z: zfull,
-                f: ffull,
-                t: None,
-                since: None,
-                mean: pattern_rms(ds, res, a),
-                p: gt.p_value.min(1.0),
-                visits: (0..nv).collect(),
-            });
-        }
+        out.extend((0..2).map(|a| pattern(a, gt.p_value)));
     }
     out
 }
