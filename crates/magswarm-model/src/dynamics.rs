@@ -342,26 +342,39 @@ impl InputTerms {
     #[inline(always)]
     pub fn rhs(&self, model: &Model, r: [f64; 2]) -> [f64; 2] {
         let beta = model.dynamics.beta;
-        self.rhs_with(model, r, |gap| pow_int_or_real(gap, beta))
+        if beta == 3.0 {
+            // What the integrator evaluates (`integrate::Stepper::advance`), bit for bit.
+            self.rhs_with(model, r, |gap, c| (c * gap) * (gap * gap))
+        } else {
+            self.rhs_with(model, r, |gap, c| c * pow_int_or_real(gap, beta))
+        }
     }
 
-    /// [`InputTerms::rhs`] with `(r - r_min)^beta` for a positive gap given as `pow` (the
-    /// integrator passes the cube written out when beta is 3: the same operations as
-    /// [`pow_int_or_real`], without choosing them on every evaluation).
+    /// [`InputTerms::rhs`] with `c (r - r_min)^beta` for a positive gap given as
+    /// `pow(gap, c)` (c = k_b S, the gain of that term; the integrator and [`InputTerms::rhs`]
+    /// pass `(c gap) (gap gap)` when beta is 3, without choosing the power on every
+    /// evaluation).
     #[inline(always)]
     pub(crate) fn rhs_with(
         &self,
         model: &Model,
         r: [f64; 2],
-        pow: impl Fn(f64) -> f64,
+        pow: impl Fn(f64, f64) -> f64,
     ) -> [f64; 2] {
         let d = &model.dynamics;
         let s = self.s();
+        // Ordered for a short dependency chain (the integrator's stages wait on each other):
+        // the state-independent gain k_b s goes into the power (`pow(gap, c)` is
+        // `c gap^beta`; the cube as `(c gap) (gap gap)`), and `e - K_d r` is summed beside
+        // it, so r -> f is a subtraction, two multiplications and a subtraction. The same
+        // terms as `-k_b s gap^beta + e - K_d r`, associated differently: an ulp-level
+        // difference, far inside the integrator's tolerance (`integrate` tests).
         let e = self.e0 * r[0] * r[1];
-        let confine = |gap: f64| if gap > 0.0 { pow(gap) } else { 0.0 };
+        let c = [self.k_b[0] * s[0], self.k_b[1] * s[1]];
+        let confine = |gap: f64, c: f64| if gap > 0.0 { pow(gap, c) } else { 0.0 };
         [
-            -self.k_b[0] * s[0] * confine(r[0] - d.r1_min) + e - d.K_d1 * r[0],
-            -self.k_b[1] * s[1] * confine(r[1] - d.r2_min) + e - d.K_d2 * r[1],
+            (e - d.K_d1 * r[0]) - confine(r[0] - d.r1_min, c[0]),
+            (e - d.K_d2 * r[1]) - confine(r[1] - d.r2_min, c[1]),
         ]
     }
 
