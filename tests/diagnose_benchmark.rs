@@ -130,35 +130,3 @@ fn a_local_anomaly_is_reported_unexplained_at_its_place() {
     let (v, named) = verdict(&sc);
     assert_eq!(v, "right", "{}: named {named:?}", sc.describe());
 }
-
-#[test]
-fn a_band_that_moves_with_the_field_is_found_and_named_phase_lag() {
-    // A band over f whose centre moves with z_m (a step-out or resonance frequency set by the
-    // field's strength): at every depth it covers other grid frequencies, so a band over f at
-    // every z_m averages it away. Searched along the field-scaled frequency it lines up.
-    for (slope, p, seed) in [
-        (0.12, Protocol::GridOnce, 61),
-        (-0.1, Protocol::FarSteps, 62),
-    ] {
-        let sc = one(Shape::SlidingBand { f0: 5.5, slope }, 5.0, p, seed);
-        let (v, named) = verdict(&sc);
-        assert_eq!(v, "right", "{}: named {named:?}", sc.describe());
-    }
-}
-
-#[test]
-fn a_patch_at_two_depths_is_not_taken_for_a_band_that_moves_with_the_field() {
-    // A 2 x 2 patch of the grid lies on one run of a field-scaled frequency at two depths; a
-    // band must show at every depth, so the patch stays a local anomaly.
-    // (Without the rule that a band shows at every depth with one sign, the second and
-    // third were named phase_lag.)
-    for (z0, f0, strength, p, seed) in [
-        (8.5, 6.0, 4.0, Protocol::GridOnce, 63),
-        (8.5, 6.0, 5.0, Protocol::FarSteps, 64),
-        (13.5, 2.0, 4.0, Protocol::GridOnce, 66),
-    ] {
-        let sc = one(Shape::Patch { z0, f0 }, strength, p, seed);
-        let (v, named) = verdict(&sc);
-        assert_eq!(v, "right", "{}: named {named:?}", sc.describe());
-    }
-}

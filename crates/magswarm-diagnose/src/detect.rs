@@ -7,7 +7,7 @@
 //!
 //! | family | alternatives |
 //! | --- | --- |
-//! | `inputs` | a shape over f (bands such as a step-out), a shape over z_m, a smooth surface over (z_m, f) with interaction, the strongest band (every z_m over a run of frequencies, of the drive's or of one scaled by the field (a band that moves with the field's strength), or every f over a run of distances), and the strongest box of neighbouring operating points (a local anomaly) |
+//! | `inputs` | a shape over f (bands such as a step-out), a shape over z_m, a smooth surface over (z_m, f) with interaction, the strongest band (every z_m over a run of frequencies, or every f over a run of distances), and the strongest box of neighbouring operating points (a local anomaly) |
 //! | `drift` | a shape over session time (any monotone or sudden course) |
 //! | `formation` | a shape over the time since each input change, scaled by the step of the steady map (any transient: monotone, overshooting, oscillating) |
 //! | `lack_of_fit` | a free mean per operating point (only where points were revisited) |
@@ -195,151 +195,21 @@ pub enum Boxes {
     Bands,
     /// Bands over f only: every z_m level over a run of f levels (the step-out's signature).
     BandsF,
-    /// Bands over f only, each holding a visit at every z_m level and residuals of one sign
-    /// at every level: on a frequency scaled by the field, where a run of bins may miss the
-    /// levels of some depths altogether or pass through a local patch (it would then be a
-    /// local box, not a band).
-    BandsFCovering,
 }
-
-/// A box scan's result: (statistic, axis (2: both), z cells, f cells).
-pub type BoxHit = (f64, usize, (usize, usize), (usize, usize));
 
 /// The strongest box of neighbouring cells of the (z_m, f) grid among `boxes`: max over
 /// boxes of |sum of visit residuals| / (visit SD sqrt(visits)), per radius (the larger of the
 /// two), or, with `joint`, the root sum of both radii's squares (a structure of both radii).
-pub fn box_scan(ds: &Dataset, res: &[[f64; 2]], sd: [f64; 2], boxes: Boxes, joint: bool) -> BoxHit {
-    let (cell, nz, nf) = noise::cells(ds);
-    let vr = super::data::visit_residuals(ds, res);
-    box_scan_in(ds, (&cell, nz, nf), &vr, sd, boxes, joint)
-}
-
-/// Exponents nu of the field-scaled frequency `f (B/B_mid)^-nu` a band is also searched
-/// along, beside the drive frequency itself: a step-out band whose frequencies move with the
-/// field (a stronger field holds the swarm to a higher frequency, nu > 0: up to
-/// [`BAND_NU_MAX`], past half the step-out's own scaling) or against it (nu < 0, down to
-/// [`BAND_NU_MIN`]: a resonance of a swarm that is larger, and so slower, where the field is
-/// weaker). At every z_m such a band covers other frequency levels, so a band over f alone
-/// averages it away. The exponents are spaced so that neighbouring ones move a band by
-/// [`BAND_NU_SHIFT`] of its frequency (relative) across the log's range of field strengths,
-/// less than half the spacing of a grid's frequency levels: one of them lines the band up.
-pub fn band_nus(ln_b_range: f64) -> Vec<f64> {
-    if ln_b_range.is_nan() || ln_b_range <= 1e-6 {
-        return Vec::new();
-    }
-    let step = (BAND_NU_SHIFT / ln_b_range).max((BAND_NU_MAX - BAND_NU_MIN) / BAND_NU_COUNT);
-    let mut nus: Vec<f64> = (1..)
-        .map(|k| -(k as f64) * step)
-        .take_while(|&nu| nu >= BAND_NU_MIN)
-        .collect();
-    nus.reverse();
-    nus.extend(
-        (1..)
-            .map(|k| k as f64 * step)
-            .take_while(|&nu| nu <= BAND_NU_MAX),
-    );
-    nus
-}
-
-/// Smallest field exponent of a band's frequency searched (see [`band_nus`]).
-pub const BAND_NU_MIN: f64 = -0.4;
-/// Largest field exponent of a band's frequency searched.
-pub const BAND_NU_MAX: f64 = 0.6;
-/// Relative shift of a band's frequency across the log's field strengths between
-/// neighbouring exponents.
-pub const BAND_NU_SHIFT: f64 = 0.1;
-/// Most exponents searched (the spacing widens beyond it).
-pub const BAND_NU_COUNT: f64 = 24.0;
-
-/// The visits' cells in the field-scaled frequency of each of [`band_nus`].
-pub fn band_layouts(ds: &Dataset, rc: &RowCtx) -> Vec<BandLayout> {
-    let ln_b: Option<Vec<f64>> = ds
-        .visits
-        .iter()
-        .map(|v| v.rows.first().map(|&i| rc.ln_b[i]))
-        .collect();
-    let Some(ln_b) = ln_b else {
-        return Vec::new();
-    };
-    let lo = ln_b.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = ln_b.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    band_nus(hi - lo)
-        .into_iter()
-        .map(|nu| {
-            let fv: Vec<f64> = ds
-                .visits
-                .iter()
-                .zip(&ln_b)
-                .map(|(v, &lb)| ds.points[v.point].1 * (-nu * lb).exp())
-                .collect();
-            // Finer bins than the drive frequency's levels: on a grid, the points of a band
-            // that moves with the field fall close together on its scaled frequency, between
-            // the other levels' points, and a coarse bin would mix them with those.
-            let (cells, nz, fbins) = noise::cells_by(ds, &fv, &fv, 24);
-            BandLayout {
-                nu,
-                cells,
-                nz,
-                fbins,
-            }
-        })
-        .collect()
-}
-
-/// The visits binned over z_m and a field-scaled frequency (see [`band_layouts`]).
-#[derive(Debug, Clone)]
-pub struct BandLayout {
-    /// The field exponent of the frequency coordinate.
-    pub nu: f64,
-    /// Cell (z bin, scaled-f bin) of each visit.
-    pub cells: Vec<(usize, usize)>,
-    /// Count of z bins.
-    pub nz: usize,
-    /// Edges (lo, hi) of the scaled-f bins \[Hz\].
-    pub fbins: Vec<(f64, f64)>,
-}
-
-/// The strongest band: over f at every z_m (and, with `z_bands`, over z_m at every f) on the
-/// drive frequency, or over f at every z_m on one of the field-scaled frequencies of
-/// `layouts`. Returns the box scan's result and the nu it was found at (0: the drive
-/// frequency).
-pub fn band_scan(
+/// Returns (statistic, axis (2: both), z cells, f cells).
+pub fn box_scan(
     ds: &Dataset,
-    layouts: &[BandLayout],
     res: &[[f64; 2]],
-    sd: [f64; 2],
-    joint: bool,
-    z_bands: bool,
-) -> (BoxHit, f64) {
-    let raw = if z_bands { Boxes::Bands } else { Boxes::BandsF };
-    let (cell, nz, nf) = noise::cells(ds);
-    let vr = super::data::visit_residuals(ds, res);
-    let mut best = (box_scan_in(ds, (&cell, nz, nf), &vr, sd, raw, joint), 0.0);
-    for l in layouts {
-        let b = box_scan_in(
-            ds,
-            (&l.cells, l.nz, l.fbins.len()),
-            &vr,
-            sd,
-            Boxes::BandsFCovering,
-            joint,
-        );
-        if b.0 > best.0 .0 {
-            best = (b, l.nu);
-        }
-    }
-    best
-}
-
-/// [`box_scan`] over given cells of the visits (cells, count of z bins, of f bins).
-fn box_scan_in(
-    ds: &Dataset,
-    (cell, nz, nf): (&[(usize, usize)], usize, usize),
-    vr: &super::data::VisitRes,
     sd: [f64; 2],
     boxes: Boxes,
     joint: bool,
-) -> BoxHit {
+) -> (f64, usize, (usize, usize), (usize, usize)) {
+    let vr = super::data::visit_residuals(ds, res);
+    let (cell, nz, nf) = noise::cells(ds);
     let nv = ds.visits.len();
     // 2-D prefix sums of residual (per radius) and count over the cells.
     let w = nf + 1;
@@ -368,23 +238,15 @@ fn box_scan_in(
         t[(z1 + 1) * w + f1 + 1] - t[z0 * w + f1 + 1] - t[(z1 + 1) * w + f0] + t[z0 * w + f0]
     };
     let mut best = (0.0, 0, (0, 0), (0, 0));
-    // Bands over f span every z bin: one run of z bins to search.
-    let z_runs: Vec<(usize, usize)> = if matches!(boxes, Boxes::BandsF | Boxes::BandsFCovering) {
-        vec![(0, nz.saturating_sub(1))]
-    } else {
-        (0..nz)
-            .flat_map(|z0| (z0..nz).map(move |z1| (z0, z1)))
-            .collect()
-    };
-    for (z0, z1) in z_runs {
-        {
+    for z0 in 0..nz {
+        for z1 in z0..nz {
             for f0 in 0..nf {
                 for f1 in f0..nf {
                     let (all_z, all_f) = (z0 == 0 && z1 == nz - 1, f0 == 0 && f1 == nf - 1);
                     let keep = match boxes {
                         Boxes::Local => !all_z && !all_f,
                         Boxes::Bands => all_z != all_f,
-                        Boxes::BandsF | Boxes::BandsFCovering => all_z && !all_f,
+                        Boxes::BandsF => all_z && !all_f,
                     };
                     if !keep {
                         continue;
@@ -401,24 +263,9 @@ fn box_scan_in(
                     } else {
                         (z[1].abs(), 1)
                     };
-                    if stat <= best.0 {
-                        continue;
+                    if stat > best.0 {
+                        best = (stat, axis, (z0, z1), (f0, f1));
                     }
-                    // A band on a field-scaled frequency holds a visit at every depth and
-                    // shows there with one sign (on its stronger radius): a run of scaled
-                    // bins is narrow enough to miss some depths or to pass through a local
-                    // patch at two depths, which would carry it alone.
-                    if boxes == Boxes::BandsFCovering {
-                        let a = usize::from(z[1].abs() > z[0].abs());
-                        let sign = z[a].signum();
-                        if (0..nz).any(|zi| {
-                            rect(&c, zi, zi, f0, f1) < 1.0
-                                || rect(&s[a], zi, zi, f0, f1) * sign <= 0.0
-                        }) {
-                            continue;
-                        }
-                    }
-                    best = (stat, axis, (z0, z1), (f0, f1));
                 }
             }
         }
@@ -455,7 +302,6 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let one_fold = vec![0usize; st.y.len()];
     let base = Solver::new(st.base, &one_fold, 1)?;
     let rough = noise::Roughness::new(ds);
-    let layouts = band_layouts(ds, st.rc);
     // Each smooth alternative is judged per radius (an effect may show in one only: a band of
     // r2), the boxes over both.
     let mut alts: Vec<(&'static str, String, Kind, Option<usize>)> = Vec::new();
@@ -549,13 +395,6 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
                 .iter()
                 .map(|(_, _, k, a)| match (k, a) {
                     (Kind::Design(i), Some(a)) => drops[*i][*a],
-                    (
-                        Kind::Box {
-                            boxes: Boxes::Bands,
-                            joint,
-                        },
-                        _,
-                    ) => band_scan(ds, &layouts, &r0, sd0, *joint, true).0 .0,
                     (Kind::Box { boxes, joint }, _) => box_scan(ds, &r0, sd0, *boxes, *joint).0,
                     _ => 0.0,
                 })

@@ -63,23 +63,9 @@ pub const MIN_PAIRS: usize = 12;
 
 /// Cell (z bin, f bin) of every visit on the binned grid of operating points.
 pub fn cells(ds: &Dataset) -> (Vec<(usize, usize)>, usize, usize) {
-    let (_, fs) = ds.levels();
-    let fv: Vec<f64> = ds.visits.iter().map(|v| ds.points[v.point].1).collect();
-    let (c, nz, fb) = cells_by(ds, &fv, &fs, 10);
-    (c, nz, fb.len())
-}
-
-/// Cells of the visits (z bin, f bin), the count of z bins and the f bins' (lo, hi) edges.
-pub type BinnedCells = (Vec<(usize, usize)>, usize, Vec<(f64, f64)>);
-
-/// Cell (z bin, bin of `fv`) of every visit, with `fv` a frequency coordinate per visit (the
-/// drive frequency, or one scaled by the field) binned over its distinct `levels` into at
-/// most `k` bins: the bins' (lo, hi) edges are returned beside the cells and the count of z
-/// bins.
-pub fn cells_by(ds: &Dataset, fv: &[f64], levels: &[f64], k: usize) -> BinnedCells {
-    let (zs, _) = ds.levels();
+    let (zs, fs) = ds.levels();
     let zb = super::data::level_bins(&zs, 8);
-    let fb = super::data::level_bins(levels, k);
+    let fb = super::data::level_bins(&fs, 10);
     let find = |b: &[(f64, f64)], x: f64| {
         b.iter()
             .position(|&(lo, hi)| x >= lo - 1e-9 && x <= hi + 1e-9)
@@ -88,10 +74,12 @@ pub fn cells_by(ds: &Dataset, fv: &[f64], levels: &[f64], k: usize) -> BinnedCel
     let c = ds
         .visits
         .iter()
-        .zip(fv)
-        .map(|(v, &f)| (find(&zb, ds.points[v.point].0), find(&fb, f)))
+        .map(|v| {
+            let (z, f) = ds.points[v.point];
+            (find(&zb, z), find(&fb, f))
+        })
         .collect();
-    (c, zb.len(), fb)
+    (c, zb.len(), fb.len())
 }
 
 /// Estimate the noise from a model's row residuals \[mm\] (`res`; its structure mostly cancels).

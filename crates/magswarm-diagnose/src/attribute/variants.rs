@@ -261,27 +261,12 @@ pub(super) fn anomaly_columns(lin: &Linear, e0: &DVector<f64>) -> (DMatrix<f64>,
 /// without a band (fewer than two frequency levels).
 pub(super) fn band_family(lin: &Linear, e0: &DVector<f64>) -> Option<Family> {
     let ds = lin.ds;
-    let r0 = detect::unweight(e0, lin.rc.w);
-    let sd = noise::Roughness::new(ds)
-        .visit_sd(&r0)
-        .unwrap_or(lin.noise.visit);
-    let ((stat, _, _, fr), nu) = detect::band_scan(ds, &lin.bands, &r0, sd, false, false);
+    let (stat, _, _, fr) = strongest(lin, e0, detect::Boxes::BandsF);
     if stat <= 0.0 {
         return None;
     }
-    // The band's frequency coordinate: the drive frequency, or the field-scaled one it was
-    // found along (its levels: every row's value).
-    let (fs, bins) = if nu == 0.0 {
-        let (_, fs) = ds.levels();
-        let bins = crate::data::level_bins(&fs, 10);
-        (fs, bins)
-    } else {
-        let l = lin.bands.iter().find(|l| l.nu == nu)?;
-        let mut xs = lin.rc.xs(Axis::F { nu });
-        xs.sort_by(|a, b| a.total_cmp(b));
-        xs.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-        (xs, l.fbins.clone())
-    };
+    let (_, fs) = ds.levels();
+    let bins = crate::data::level_bins(&fs, 10);
     let (lo, hi) = (bins.get(fr.0)?.0, bins.get(fr.1)?.1);
     let inside: Vec<f64> = fs
         .iter()
@@ -303,7 +288,7 @@ pub(super) fn band_family(lin: &Linear, e0: &DVector<f64>) -> Option<Family> {
     Some(Family {
         pin_first,
         pin_last,
-        ..Family::new(Axis::F { nu }, Mode::Add, knots, 0.1)
+        ..Family::new(Axis::F { nu: 0.0 }, Mode::Add, knots, 0.1)
     })
 }
 
@@ -318,8 +303,6 @@ pub(super) fn describe(v: &Variant) -> String {
         Variant::Column(n, _) => format!("library form's {n} (amplitude free)"),
         Variant::Columns(n, ..) => format!("library form's {n}"),
         Variant::Anomaly => "strongest small box of operating points".into(),
-        Variant::Band => {
-            "strongest band over f (or f scaled by the field) at every z_m (mm)".into()
-        }
+        Variant::Band => "strongest band over f at every z_m (mm)".into(),
     }
 }

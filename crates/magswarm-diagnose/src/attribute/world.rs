@@ -32,9 +32,6 @@ pub struct Linear<'a> {
     /// The prior that holds them near the baseline in nonlinear refits (the linear design's
     /// ridge).
     pub anchor: fitter::Anchor,
-    /// The visits binned on the field-scaled frequencies a band is searched along (fixed
-    /// by the design and the field, so made once).
-    pub bands: Vec<crate::detect::BandLayout>,
 }
 
 impl<'a> Linear<'a> {
@@ -192,7 +189,6 @@ impl<'a> Linear<'a> {
         let fold_of_stacked = (0..2 * n)
             .map(|s| fold_of_visit[ds.rows[s / 2].visit])
             .collect();
-        let bands = crate::detect::band_layouts(ds, &rc);
         Linear {
             ds,
             ctx,
@@ -207,7 +203,6 @@ impl<'a> Linear<'a> {
             k,
             free,
             anchor,
-            bands,
         }
     }
 
