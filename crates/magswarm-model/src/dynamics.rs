@@ -344,7 +344,7 @@ impl InputTerms {
         let beta = model.dynamics.beta;
         if beta == 3.0 {
             // What the integrator evaluates (`integrate::Stepper::advance`), bit for bit.
-            self.rhs_with(model, r, |gap, c| (c * gap) * (gap * gap))
+            self.rhs_with(model, r, gain_times_cube)
         } else {
             self.rhs_with(model, r, |gap, c| c * pow_int_or_real(gap, beta))
         }
@@ -431,6 +431,14 @@ impl InputTerms {
         }
         out
     }
+}
+
+/// `c gap^3` as `(c gap) (gap gap)`: the confinement term of (4) for the paper's beta = 3,
+/// two multiplications deep. The one form both [`InputTerms::rhs`] and the integrator's
+/// stages use, so that the two give the same bits.
+#[inline(always)]
+pub(crate) fn gain_times_cube(gap: f64, c: f64) -> f64 {
+    (c * gap) * (gap * gap)
 }
 
 /// `x^e` by multiplication when `e` is 1, 2, 3 or 4 (the paper's beta is 3), by `sqrt` for

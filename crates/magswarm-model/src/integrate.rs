@@ -303,7 +303,7 @@ impl Stepper {
         // the same form for beta = 3, so both give the same bits), fewer branches in the
         // seven stages, which LLVM then keeps in registers.
         if model.dynamics.beta == 3.0 {
-            let f = |r: [f64; 2]| terms.rhs_with(model, r, |g, c| (c * g) * (g * g));
+            let f = |r: [f64; 2]| terms.rhs_with(model, r, crate::dynamics::gain_times_cube);
             self.advance_with(f, terms, y, t, h_comm, tol)
         } else {
             let f = |r: [f64; 2]| terms.rhs(model, r);

@@ -233,8 +233,8 @@ pub fn localise(
         // candidates are still weighed rather than the gap left without a place.
         if !out.iter().any(|r| r.kind == Kind::Drift) {
             if let Some(c) = cands.iter().min_by(|x, y| x.4.total_cmp(&y.4)) {
-                let t0 = t.iter().copied().fold(f64::INFINITY, f64::min);
-                let t1 = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+                // The session's span: the first bin's start to the last bin's end.
+                let (t0, t1) = (tb[0].0, tb[tb.len() - 1].1);
                 out.push(Region {
                     kind: Kind::Drift,
                     axis: c.0,
