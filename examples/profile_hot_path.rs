@@ -19,16 +19,20 @@
 //! - `tracking`: the seed's tracking scenario through the FMU and the Rust PID harness
 //!   (`--runs=K`: K runs, each on a new instance of the one loaded FMU, so the runs after
 //!   the first find the map-table cells the first built; the difference of K = 2 and K = 1
-//!   is the cost of a run with the cells built).
+//!   is the cost of a run with the cells built); each run prints its wall time;
+//! - `replay`: the FMU and importer alone, replaying the commands of one PID run (no
+//!   controller), `--runs=K`;
+//! - `closed-loop`: the same scenario in process (controller and `Plant`, no FMI), `--runs=K`.
 
 use std::hint::black_box;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 use magswarm::control::{seed_scenario, sim, Controller, PidConfig};
+use magswarm::control::{Inputs, SwarmPlant};
 use magswarm::cosim::{CoSimConfig, CoSimulation, Fmu, NoLog};
 use magswarm::model::dynamics::InputTerms;
-use magswarm::model::{Model, Plant};
+use magswarm::model::{hz_to_rad_s, Model, Plant};
 use magswarm::perf::raw::{inputs, RawLoop, MAGSWARM};
 
 fn main() -> Result<()> {
@@ -100,12 +104,97 @@ fn main() -> Result<()> {
                     },
                 )?;
                 let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+                let t0 = std::time::Instant::now();
                 let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
-                println!("{} samples", run.samples.len());
+                let dt = t0.elapsed();
+                println!("{} samples, {:.1} ms", run.samples.len(), dt.as_secs_f64() * 1e3);
+            }
+        }
+        "replay" => {
+            // The FMU and the importer alone: the commands of one PID run replayed through
+            // `SwarmPlant::step` (set + doStep + get), with no controller; what the tracking
+            // scenario costs at the least with this FMU and importer.
+            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
+                Some(k) => k.parse().context("--runs=K")?,
+                None => 1,
+            };
+            let fmu = load()?;
+            let cfg = PidConfig {
+                sample_time_s: h,
+                ..PidConfig::default()
+            };
+            let co_cfg = CoSimConfig {
+                step_s: h,
+                initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
+                ..CoSimConfig::default()
+            };
+            let mut co = CoSimulation::new(&fmu, &co_cfg)?;
+            let mut ctrl = Controller::new(Model::paper(), cfg)?;
+            let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
+            let cmds: Vec<Inputs> = run
+                .samples
+                .iter()
+                .map(|s| Inputs::new(s.z_m_mm * 1e-3, hz_to_rad_s(s.f_hz)))
+                .collect();
+            for _ in 0..runs {
+                let mut co = CoSimulation::new(&fmu, &co_cfg)?;
+                let t0 = std::time::Instant::now();
+                let mut sum = SwarmPlant::measure(&mut co)?.r_mm[0];
+                for &u in &cmds {
+                    sum += SwarmPlant::step(&mut co, u, h)?.r_mm[0];
+                }
+                let dt = t0.elapsed();
+                println!("{} samples, {:.1} ms ({sum})", cmds.len(), dt.as_secs_f64() * 1e3);
+            }
+        }
+        "controller" => {
+            // The controller alone: the measurements and setpoints of one in-process run
+            // fed to a fresh controller (no plant, no importer), `--runs=K`.
+            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
+                Some(k) => k.parse().context("--runs=K")?,
+                None => 1,
+            };
+            let cfg = PidConfig {
+                sample_time_s: h,
+                ..PidConfig::default()
+            };
+            let mut plant = Plant::new(Model::paper(), sim::SEED_START.0, sim::SEED_START.1);
+            let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+            let s = sim::closed_loop(&mut plant, &mut ctrl, &seed_scenario(), false);
+            for _ in 0..runs {
+                let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+                let first = &s[0];
+                ctrl.reset(sim::SEED_START.0, sim::SEED_START.1, [first.r1_mm, first.r2_mm]);
+                let t0 = std::time::Instant::now();
+                let mut sum = 0.0;
+                for x in &s {
+                    sum += ctrl.step([x.r1_mm, x.r2_mm], [x.r1_ref_mm, x.r2_ref_mm]).0;
+                }
+                let dt = t0.elapsed();
+                println!("{} samples, {:.1} ms ({sum})", s.len(), dt.as_secs_f64() * 1e3);
+            }
+        }
+        "closed-loop" => {
+            // The same scenario in process: the controller and the plant without FMI.
+            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
+                Some(k) => k.parse().context("--runs=K")?,
+                None => 1,
+            };
+            let cfg = PidConfig {
+                sample_time_s: h,
+                ..PidConfig::default()
+            };
+            for _ in 0..runs {
+                let mut plant = Plant::new(Model::paper(), sim::SEED_START.0, sim::SEED_START.1);
+                let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+                let t0 = std::time::Instant::now();
+                let s = sim::closed_loop(&mut plant, &mut ctrl, &seed_scenario(), false);
+                let dt = t0.elapsed();
+                println!("{} samples, {:.1} ms", s.len(), dt.as_secs_f64() * 1e3);
             }
         }
         other => bail!(
-            "unknown workload {other}: fmu-const, fmu-change, plant-const, plant-change, terms, tracking"
+            "unknown workload {other}: fmu-const, fmu-change, plant-const, plant-change, terms, tracking, closed-loop"
         ),
     }
     Ok(())
