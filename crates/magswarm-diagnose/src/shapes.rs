@@ -11,6 +11,7 @@
 //! | `phase_lag` | f, optionally scaled by the field, `f (B(z)/B_mid)^-nu` (an onset that moves with the field) | mm added to the steady radii |
 //! | `cohesion_loss` | z_m | a relative change shared by both radii, or mm added to one radius |
 //! | `particle_drift` | session time | relative change of the observed radii |
+//! | `centroid_offset` | z_m, or f with an amplitude going as `d^-2` (`(B/B_mid)^(2/3)`) | an aspect change: r1 and r2 in opposite proportion, r1's at 1/2, 1 or 2 times r2's |
 //! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating; optionally only what varies within each visit, for naming) |
 //!
 //! The heights are unknowns of a penalised linear model ([`super::linear`]): the roughness
@@ -72,7 +73,7 @@ pub enum Mode {
     /// A deficit of the swarm's rotation rate \[Hz\]: the steady map at the drive frequency
     /// less the value (one value for both radii: a step-out slows the whole swarm).
     Rate,
-    /// A change of the swarm's aspect [-]: r1 (1 - v) and r2 (1 + v), one value for both
+    /// A change of the swarm's aspect [-]: r1 (1 - ratio v) and r2 (1 + v), one value for both
     /// radii (stretched along one principal direction, squeezed along the other). Written
     /// into the model file as a relative change with opposite heights.
     Aspect,
@@ -126,6 +127,10 @@ pub struct Family {
     /// out): evidence of a transient that no visit offset can make, for naming; the shape
     /// that enters a model is always the whole one.
     pub within: bool,
+    /// For [`Mode::Aspect`]: r1's relative change per unit of r2's (opposite in sign). Off
+    /// the axis nothing makes the two principal directions deform equally; the variants
+    /// take one to be twice or half the other, beside equal.
+    pub ratio: f64,
 }
 
 impl Family {
@@ -142,6 +147,7 @@ impl Family {
             axes: [true; 2],
             monotone: None,
             within: false,
+            ratio: 1.0,
         }
     }
 }
@@ -303,7 +309,7 @@ impl RowCtx {
                 Mode::Relative | Mode::Common => self.pred[i][a],
                 Mode::StepFraction => self.delta[i][a],
                 Mode::Rate => -self.dmap_df[i][a],
-                Mode::Aspect => self.pred[i][a] * if a == 0 { -1.0 } else { 1.0 },
+                Mode::Aspect => self.pred[i][a] * if a == 0 { -f.ratio } else { 1.0 },
             }
     }
 }
@@ -411,14 +417,16 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
         out
     };
     let mut values = [take(coef, 0), take(coef, 1)];
+    let mut sds = [take(sd, 0), take(sd, 1)];
     if f.mode == Mode::Aspect {
-        // Per radius, as a relative change: r1 the opposite of r2.
-        values[0].iter_mut().for_each(|v| *v = -*v);
+        // Per radius, as a relative change: r1 the opposite of r2, `ratio` times it.
+        values[0].iter_mut().for_each(|v| *v *= -f.ratio);
+        sds[0].iter_mut().for_each(|v| *v *= f.ratio);
     }
     Shape {
         family: f.clone(),
         values,
-        sd: [take(sd, 0), take(sd, 1)],
+        sd: sds,
     }
 }
 
@@ -447,12 +455,29 @@ mod tests {
                 monotone: None,
                 within: false,
                 smooth: 0.0,
+                ratio: 1.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],
             sd: [vec![0.0; 3], vec![0.0; 3]],
         };
         assert!((s.at(3.0)[0] - 2.0).abs() < 1e-12);
         assert!((s.at(9.0)[0] - 3.0).abs() < 1e-12);
+    }
+
+    /// An aspect change with r1's relative change twice r2's is written per radius with
+    /// r1's heights (and their SDs) at -2 and 2 times r2's: what the model file carries.
+    #[test]
+    fn an_aspect_ratio_reaches_the_written_shape() {
+        let f = Family {
+            ratio: 2.0,
+            pin_first: true,
+            ..Family::new(Axis::F { nu: 0.0 }, Mode::Aspect, vec![1.0, 5.0, 10.0], 1.0)
+        };
+        let sh = shape_of(&f, &[0.01, 0.03], &[0.001, 0.002]);
+        assert_eq!(sh.values[1], vec![0.0, 0.01, 0.03]);
+        assert_eq!(sh.values[0], vec![-0.0, -0.02, -0.06]);
+        assert_eq!(sh.sd[0], vec![0.0, 0.002, 0.004]);
+        assert_eq!(sh.sd[1], vec![0.0, 0.001, 0.002]);
     }
 
     #[test]

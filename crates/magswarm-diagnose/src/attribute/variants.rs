@@ -155,6 +155,35 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
             s,
         )));
     }
+    // The two principal directions need not deform equally: one twice the other, either
+    // way (at one smoothing: every variant widens the candidate's null).
+    for ratio in [0.5, 2.0] {
+        cv.push(Variant::Shape(Family {
+            ratio,
+            ..Family::new(Axis::Z, Mode::Aspect, shapes::knots_of(&zs, 8), 1.0)
+        }));
+    }
+    // Off the axis the field the swarm sees is no longer symmetric about it, and whatever
+    // that does to the swarm (a tilted rotation plane that drives it unevenly over a turn,
+    // split curvatures) enters at second order in the swarm's angular offset, (rho/d)^2:
+    // the field's expansion about its axis is even in rho. So an aspect change whose size
+    // goes with the drive frequency is the same shape over f at every depth, scaled by
+    // d^-2, i.e. by (B/B_mid)^(2/3) for the dipole's B ~ d^-3: strongest next to the magnet.
+    // A step-out runs the other way (a strong field keeps the swarm in step longer).
+    let xf = rc.xs(Axis::F { nu: 0.0 });
+    for ratio in [0.5, 1.0, 2.0] {
+        cv.push(Variant::Shape(Family {
+            pin_first: true,
+            amp: 2.0 / 3.0,
+            ratio,
+            ..Family::new(
+                Axis::F { nu: 0.0 },
+                Mode::Aspect,
+                shapes::knots_of(&xf, fs.len().clamp(2, 10)),
+                1.0,
+            )
+        }));
+    }
     for o in [3.0, 8.0, 16.0] {
         let mut a = lin.base.clone();
         a.effects.push((EffectKind::CentroidOffset, vec![o]));
@@ -294,12 +323,21 @@ pub(super) fn band_family(lin: &Linear, e0: &DVector<f64>) -> Option<Family> {
 
 pub(super) fn describe(v: &Variant) -> String {
     match v {
-        Variant::Shape(f) => format!(
-            "learned shape over {} ({} knots, smoothing {})",
-            f.axis.label(),
-            f.knots.len(),
-            f.smooth
-        ),
+        Variant::Shape(f) => {
+            let mut extra = String::new();
+            if f.mode == Mode::Aspect && f.ratio != 1.0 {
+                extra += &format!(", r1's relative change {} times r2's", f.ratio);
+            }
+            if f.amp != 0.0 {
+                extra += &format!(", amplitude (B/B_mid)^{:.3}", f.amp);
+            }
+            format!(
+                "learned shape over {} ({} knots, smoothing {}{extra})",
+                f.axis.label(),
+                f.knots.len(),
+                f.smooth
+            )
+        }
         Variant::Column(n, _) => format!("library form's {n} (amplitude free)"),
         Variant::Columns(n, ..) => format!("library form's {n}"),
         Variant::Anomaly => "strongest small box of operating points".into(),
