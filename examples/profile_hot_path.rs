@@ -50,6 +50,24 @@ fn main() -> Result<()> {
     };
     let h = 1e-3;
     let load = || Fmu::load(Path::new(fmu_path)).with_context(|| format!("load {fmu_path}"));
+    // The tracking workloads: the seed's scenario at 1 kHz, `--runs=K` runs, each timed.
+    let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
+        Some(k) => k.parse().context("--runs=K")?,
+        None => 1,
+    };
+    let cfg = PidConfig {
+        sample_time_s: h,
+        ..PidConfig::default()
+    };
+    let co_cfg = CoSimConfig {
+        step_s: h,
+        initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
+        ..CoSimConfig::default()
+    };
+    let report = |samples: usize, t0: std::time::Instant, check: f64| {
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        println!("{samples} samples, {ms:.1} ms ({check})");
+    };
     match what {
         "fmu-const" | "fmu-change" => {
             let fmu = load()?;
@@ -85,49 +103,20 @@ fn main() -> Result<()> {
             }
         }
         "tracking" => {
-            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
-                Some(k) => k.parse().context("--runs=K")?,
-                None => 1,
-            };
             let fmu = load()?;
-            let cfg = PidConfig {
-                sample_time_s: h,
-                ..PidConfig::default()
-            };
             for _ in 0..runs {
-                let mut co = CoSimulation::new(
-                    &fmu,
-                    &CoSimConfig {
-                        step_s: h,
-                        initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
-                        ..CoSimConfig::default()
-                    },
-                )?;
+                let mut co = CoSimulation::new(&fmu, &co_cfg)?;
                 let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
                 let t0 = std::time::Instant::now();
                 let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
-                let dt = t0.elapsed();
-                println!("{} samples, {:.1} ms", run.samples.len(), dt.as_secs_f64() * 1e3);
+                report(run.samples.len(), t0, run.summary.last.r_mm[0]);
             }
         }
         "replay" => {
             // The FMU and the importer alone: the commands of one PID run replayed through
             // `SwarmPlant::step` (set + doStep + get), with no controller; what the tracking
             // scenario costs at the least with this FMU and importer.
-            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
-                Some(k) => k.parse().context("--runs=K")?,
-                None => 1,
-            };
             let fmu = load()?;
-            let cfg = PidConfig {
-                sample_time_s: h,
-                ..PidConfig::default()
-            };
-            let co_cfg = CoSimConfig {
-                step_s: h,
-                initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
-                ..CoSimConfig::default()
-            };
             let mut co = CoSimulation::new(&fmu, &co_cfg)?;
             let mut ctrl = Controller::new(Model::paper(), cfg)?;
             let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
@@ -143,21 +132,12 @@ fn main() -> Result<()> {
                 for &u in &cmds {
                     sum += SwarmPlant::step(&mut co, u, h)?.r_mm[0];
                 }
-                let dt = t0.elapsed();
-                println!("{} samples, {:.1} ms ({sum})", cmds.len(), dt.as_secs_f64() * 1e3);
+                report(cmds.len(), t0, sum);
             }
         }
         "controller" => {
             // The controller alone: the measurements and setpoints of one in-process run
             // fed to a fresh controller (no plant, no importer), `--runs=K`.
-            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
-                Some(k) => k.parse().context("--runs=K")?,
-                None => 1,
-            };
-            let cfg = PidConfig {
-                sample_time_s: h,
-                ..PidConfig::default()
-            };
             let mut plant = Plant::new(Model::paper(), sim::SEED_START.0, sim::SEED_START.1);
             let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
             let s = sim::closed_loop(&mut plant, &mut ctrl, &seed_scenario(), false);
@@ -170,31 +150,21 @@ fn main() -> Result<()> {
                 for x in &s {
                     sum += ctrl.step([x.r1_mm, x.r2_mm], [x.r1_ref_mm, x.r2_ref_mm]).0;
                 }
-                let dt = t0.elapsed();
-                println!("{} samples, {:.1} ms ({sum})", s.len(), dt.as_secs_f64() * 1e3);
+                report(s.len(), t0, sum);
             }
         }
         "closed-loop" => {
             // The same scenario in process: the controller and the plant without FMI.
-            let runs: usize = match args.iter().find_map(|a| a.strip_prefix("--runs=")) {
-                Some(k) => k.parse().context("--runs=K")?,
-                None => 1,
-            };
-            let cfg = PidConfig {
-                sample_time_s: h,
-                ..PidConfig::default()
-            };
             for _ in 0..runs {
                 let mut plant = Plant::new(Model::paper(), sim::SEED_START.0, sim::SEED_START.1);
                 let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
                 let t0 = std::time::Instant::now();
                 let s = sim::closed_loop(&mut plant, &mut ctrl, &seed_scenario(), false);
-                let dt = t0.elapsed();
-                println!("{} samples, {:.1} ms", s.len(), dt.as_secs_f64() * 1e3);
+                report(s.len(), t0, s.last().map_or(f64::NAN, |x| x.r1_mm));
             }
         }
         other => bail!(
-            "unknown workload {other}: fmu-const, fmu-change, plant-const, plant-change, terms, tracking, closed-loop"
+            "unknown workload {other}: fmu-const, fmu-change, plant-const, plant-change, terms, tracking, replay, controller, closed-loop"
         ),
     }
     Ok(())

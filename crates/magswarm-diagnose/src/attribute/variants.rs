@@ -146,21 +146,14 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
     // principal directions, so its aspect changes with depth (stretched along one, squeezed
     // along the other; a learned shape over z_m, one value for both radii), and the
     // correction its library form makes at a few distances (amplitude free), each a column.
+    // The two principal directions need not deform equally: besides equal (at two
+    // smoothings), one twice the other, either way (at one smoothing: every variant widens
+    // the candidate's null). The knots are cohesion_loss's, on the same axis.
     let mut cv = Vec::new();
-    for s in [0.1, 1.0] {
-        cv.push(Variant::Shape(Family::new(
-            Axis::Z,
-            Mode::Aspect,
-            shapes::knots_of(&zs, 8),
-            s,
-        )));
-    }
-    // The two principal directions need not deform equally: one twice the other, either
-    // way (at one smoothing: every variant widens the candidate's null).
-    for ratio in [0.5, 2.0] {
+    for (ratio, s) in [(1.0, 0.1), (1.0, 1.0), (0.5, 1.0), (2.0, 1.0)] {
         cv.push(Variant::Shape(Family {
             ratio,
-            ..Family::new(Axis::Z, Mode::Aspect, shapes::knots_of(&zs, 8), 1.0)
+            ..Family::new(Axis::Z, Mode::Aspect, kz.clone(), s)
         }));
     }
     // Off the axis the field the swarm sees is no longer symmetric about it, and whatever
