@@ -337,6 +337,19 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         }
     }
     let scales: Vec<Scale> = designs.iter().map(|d| d.3).collect();
+    // The same shapes judged on both radii together (the sum of their drops): an effect of
+    // both radii (a band where the swarm loses step, a loss of particles) shows in each at
+    // less than its strength in both, and the min-p calibration below charges little for an
+    // alternative this correlated with the per-radius ones. Not the transients after a
+    // change: there the joint test sees another rig's own approach (first order, not ODE
+    // (4)), which the baseline's transient directions leave in both radii alike, on logs
+    // with no effect, and `formation_lag` is then named for it.
+    let joint: Vec<(&'static str, &'static str, usize)> = designs
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.0 != "formation")
+        .map(|(i, d)| (d.0, d.1, i))
+        .collect();
     let solvers: Vec<Solver> = designs
         .into_iter()
         .enumerate()
@@ -345,22 +358,6 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
                 alts.push((fam, format!("{name} r{}", a + 1), Kind::Design(i), Some(a)));
             }
             s
-        })
-        .collect();
-    // The same shapes judged on both radii together (the sum of their drops): an effect of
-    // both radii (a band where the swarm loses step, a loss of particles) shows in each at
-    // less than its strength in both, and the min-p calibration below charges little for an
-    // alternative this correlated with the per-radius ones. Not the transients after a
-    // change: there the joint test sees another rig's own approach (first order, not ODE
-    // (4)), which the baseline's transient directions leave in both radii alike, on logs
-    // with no effect, and `formation_lag` is then named for it.
-    let joint: Vec<(&'static str, String, usize)> = alts
-        .iter()
-        .filter_map(|(fam, name, k, a)| match (k, a) {
-            (Kind::Design(i), Some(0)) if *fam != "formation" => {
-                Some((*fam, name.trim_end_matches(" r1").to_string(), *i))
-            }
-            _ => None,
         })
         .collect();
     for (fam, name, i) in joint {
