@@ -114,9 +114,9 @@ pub struct Unexplained {
 pub struct Withheld {
     /// Name.
     pub source: String,
-    /// Baseline RMSE.
+    /// RMSE of the baseline as written (baseline.json, identify's model).
     pub baseline: Rmse,
-    /// Augmented RMSE.
+    /// RMSE of the augmented model as written (augmented.json).
     pub augmented: Rmse,
     /// Per valid row: its line in the file and the baseline's and the augmented model's
     /// radii there \[mm\].
@@ -419,8 +419,17 @@ pub fn diagnose_with_progress(
                     source_name: w.source.clone(),
                 });
             }
-            let pb_ = candidates::predict(&attr.baseline.full.aug, &wds);
-            let pa = candidates::predict(&attr.augmented.full.aug, &wds);
+            // The two written model files, predicted as `magswarm predict` runs them: the
+            // baseline is identify's model (baseline.json), not the attribution's linear step
+            // from it, so that the excess removed on the withheld log is the one a user
+            // measures with the files and is not credited with that step; with nothing named
+            // the augmented model is the baseline itself (augmented.json).
+            let pb_ = candidates::predict(&base_aug, &wds);
+            let pa = if attr.accepted.is_empty() {
+                pb_.clone()
+            } else {
+                candidates::predict(&attr.augmented.full.aug, &wds)
+            };
             Some(Withheld {
                 source: w.source.clone(),
                 baseline: rmse(&wds, &pb_),

@@ -135,6 +135,8 @@ pub struct Roughness {
     /// Repeat pairs, neighbours along z_m, neighbours along f, nearest neighbours in the
     /// (z_m, f) plane (a design off any grid).
     groups: [Vec<(usize, usize)>; 4],
+    /// The scale of the differences: Tukey's biweight rather than the MAD.
+    efficient: bool,
 }
 
 impl Roughness {
@@ -207,7 +209,21 @@ impl Roughness {
         Roughness {
             mean_rows: (0..nv).map(|v| ds.mean_rows(v)).collect(),
             groups,
+            efficient: false,
         }
+    }
+
+    /// The same pairs, their scale taken as Tukey's biweight scale instead of the MAD: as
+    /// robust, more than twice as efficient. For the gap tests, where the visit noise
+    /// studentises every statistic in the real log and in each simulated one, so the
+    /// estimate's scatter is scatter of the null distribution, that is lost power. The
+    /// attribution and the noise model keep the MAD: there the estimate weighs candidates
+    /// against one another rather than against a null, and the MAD's indifference to the
+    /// shoulders of the differences keeps a lab's own smooth offsets from looking like an
+    /// effect's.
+    pub fn efficient(mut self) -> Roughness {
+        self.efficient = true;
+        self
     }
 
     /// Differences the visit noise is estimated from.
@@ -265,7 +281,12 @@ impl Roughness {
                     *x -= med;
                 }
             }
-            *out = (mad0(&d) / std::f64::consts::SQRT_2).max(1e-6);
+            let scale = if self.efficient {
+                biweight_scale(&d)
+            } else {
+                mad0(&d)
+            };
+            *out = (scale / std::f64::consts::SQRT_2).max(1e-6);
         }
         Ok(visit)
     }
@@ -283,6 +304,30 @@ fn median(x: &[f64]) -> f64 {
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
     }
+}
+
+/// Tukey's biweight scale of values centred on 0 (the square root of the biweight
+/// midvariance, tuning constant 9 median absolute values): a normal SD for normal values,
+/// about 85 % efficient where the median absolute value is 37 % efficient, and as robust
+/// (values beyond 9 median absolute values, about 6 SD, carry no weight).
+fn biweight_scale(x: &[f64]) -> f64 {
+    let mad = median(&x.iter().map(|v| v.abs()).collect::<Vec<_>>());
+    if mad <= 0.0 {
+        return 1.4826 * mad;
+    }
+    let (mut num, mut den) = (0.0, 0.0);
+    for &v in x {
+        let u = v / (9.0 * mad);
+        if u.abs() < 1.0 {
+            let u2 = u * u;
+            num += v * v * (1.0 - u2).powi(4);
+            den += (1.0 - u2) * (1.0 - 5.0 * u2);
+        }
+    }
+    if den <= 0.0 {
+        return 1.4826 * mad;
+    }
+    (x.len() as f64 * num).sqrt() / den.abs()
 }
 
 /// 1.4826 x the median absolute value (a normal SD for values centred on 0).
@@ -334,6 +379,32 @@ pub fn boot_p(obs: f64, null: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_biweight_scale_is_the_sd_of_normal_values_and_ignores_a_few_wild_ones() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let mut x: Vec<f64> = (0..4000)
+            .map(|_| {
+                let g: f64 = StandardNormal.sample(&mut rng);
+                0.3 * g
+            })
+            .collect();
+        let sd = biweight_scale(&x);
+        assert!((sd / 0.3 - 1.0).abs() < 0.04, "{sd}");
+        // Scatter over repeated small samples: the biweight's is well below the MAD's.
+        let spread = |f: fn(&[f64]) -> f64| {
+            let v: Vec<f64> = x.chunks(40).map(|c| f(c).ln()).collect();
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            (v.iter().map(|a| (a - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+        };
+        assert!(spread(biweight_scale) < 0.8 * spread(mad0));
+        // 5 % of the values 30 SDs out (a band spoiling a few neighbour differences).
+        for v in x.iter_mut().step_by(20) {
+            *v = 9.0;
+        }
+        let sd = biweight_scale(&x);
+        assert!((sd / 0.3 - 1.0).abs() < 0.1, "{sd}");
+    }
 
     #[test]
     fn bootstrap_p_is_empirical_inside_and_extrapolated_beyond() {

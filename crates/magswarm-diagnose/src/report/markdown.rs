@@ -78,12 +78,12 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     if let Some(x) = &d.withheld {
         let _ = writeln!(
             w,
-            "| baseline, withheld log {} | {:.3} | {:.3} |",
+            "| baseline (baseline.json), withheld log {} | {:.3} | {:.3} |",
             x.source, x.baseline.rmse[0], x.baseline.rmse[1]
         );
         let _ = writeln!(
             w,
-            "| augmented, withheld log | {:.3} | {:.3} |",
+            "| augmented (augmented.json), withheld log | {:.3} | {:.3} |",
             x.augmented.rmse[0], x.augmented.rmse[1]
         );
     }
@@ -138,7 +138,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     }
     let _ = writeln!(
         w,
-        "\nEach alternative is a smooth shape (over f, over z_m, a surface over both, over session time, over the time since an input change scaled by the step) or the strongest box of neighbouring operating points, refitted jointly with the baseline's free parameters; the statistic is the drop of the residual sum of squares in row-noise units, studentised by the visit noise of the same residual. Its null distribution comes from {} logs of pure noise with this log's design and noise structure (visit offsets and row noise), each refitted and re-estimated like the real one. Each smooth alternative is judged per radius, and all but the transients after a change also on both radii together (r1+r2, the sum of their drops). Family p and combined p: the smallest p-value over the family's (or every) alternative, calibrated by the same simulations (min-p). For the record, the classical lack-of-fit F test (pure error from {}): r1 F = {} (p = {:.2e}), r2 F = {} (p = {:.2e}).\n",
+        "\nEach alternative is a smooth shape (over f, over z_m, a surface over both, over session time, over the time since an input change scaled by the step) or the strongest box of neighbouring operating points, refitted jointly with the baseline's free parameters; the statistic is the drop of the residual sum of squares in row-noise units, studentised by the visit noise of the same residual (the biweight scale of its neighbour differences; the MAD for the transients after a change). Its null distribution comes from {} logs of pure noise with this log's design and noise structure (visit offsets and row noise), each refitted and re-estimated like the real one. Each smooth alternative is judged per radius, and all but the transients after a change also on both radii together (r1+r2, the sum of their drops). Family p and combined p: the smallest p-value over the family's (or every) alternative, calibrated by the same simulations (min-p). For the record, the classical lack-of-fit F test (pure error from {}): r1 F = {} (p = {:.2e}), r2 F = {} (p = {:.2e}).\n",
         d.cfg.boot,
         if gt.lof_from_visits { "repeat visits" } else { "rows within visits, which cannot see the visit-to-visit error: not in the decision" },
         g(gt.lof[0].f), gt.lof[0].p, g(gt.lof[1].f), gt.lof[1].p,
