@@ -74,6 +74,13 @@ pub struct Tick<'a> {
 pub trait LogSink {
     /// Take one row.
     fn write_row(&mut self, row: &LogRow) -> std::io::Result<()>;
+
+    /// Whether the sink keeps rows at all: the driver builds a sample's row only for a sink
+    /// that does (true unless the sink says otherwise; [`NoLog`] does not).
+    #[inline]
+    fn takes_rows(&self) -> bool {
+        true
+    }
 }
 
 impl<W: Write> LogSink for LogWriter<W> {
@@ -104,6 +111,11 @@ pub struct NoLog;
 impl LogSink for NoLog {
     fn write_row(&mut self, _row: &LogRow) -> std::io::Result<()> {
         Ok(())
+    }
+
+    #[inline]
+    fn takes_rows(&self) -> bool {
+        false
     }
 }
 
@@ -182,7 +194,9 @@ where
             reading: &reading,
             inputs: plant.inputs(),
         });
-        sink.write_row(&log_row(&reading, &cmd))?;
+        if sink.takes_rows() {
+            sink.write_row(&log_row(&reading, &cmd))?;
+        }
         reading = plant
             .step(cmd.inputs, dt_s)
             .map_err(|e| fail(plant, k, e))?;

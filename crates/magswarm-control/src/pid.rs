@@ -585,6 +585,19 @@ impl Controller {
         }
     }
 
+    /// The model for the reference advanced by one sample under the feedforward `u_ff` of
+    /// this sample (its state is the reference of the next one).
+    #[inline]
+    fn advance_model(&mut self, ts: f64) {
+        let u_ff = self.st.u_ff;
+        let p = self.st.model_plant.as_mut().expect("reset made it");
+        p.set_inputs(u_ff[0], u_ff[1]);
+        if p.step(ts).is_err() {
+            // Never expected inside the envelope; fall back to the map.
+            p.settle();
+        }
+    }
+
     /// One sample: measurement (r1, r2) [mm] and setpoint (r1*, r2*) [mm] in, inputs
     /// (z_m [m], omega [rad/s]) to hold until the next sample out. The first call without
     /// [`Controller::reset`] starts at the feedforward of the setpoint.
@@ -617,10 +630,9 @@ impl Controller {
         // Reference.
         let r_ref = if self.cfg.feedforward {
             // The model's prediction for the feedforward applied so far...
-            let p = self.st.model_plant.as_mut().expect("reset made it");
-            let r_ref = p.state();
-            // ...then the feedforward for this sample, ramped at the rate limits, and the
-            // model advanced under it for the next sample.
+            let r_ref = self.st.model_plant.as_ref().expect("reset made it").state();
+            // ...then the feedforward for this sample, ramped at the rate limits (the model
+            // is advanced under it for the next sample once the command is made).
             let x_ff = self.st.x_ff;
             let x_goal = self.st.x_goal;
             // A straight line in normalised inputs, both inputs arriving together, at the
@@ -635,11 +647,9 @@ impl Controller {
             let x_new = [x_ff[0] + k * d[0], x_ff[1] + k * d[1]];
             self.st.u_ff = self.scale.u_of(x_new);
             self.st.x_ff = self.scale.x_of(self.st.u_ff);
-            p.set_inputs(self.st.u_ff[0], self.st.u_ff[1]);
-            if p.step(ts).is_err() {
-                // Never expected inside the envelope; fall back to the map.
-                p.settle();
-            }
+            // The model is advanced under `u_ff` at the end of the sample (`advance_model`),
+            // after the command: nothing in the command reads it, and the command is what
+            // the plant waits for.
             r_ref
         } else {
             let tau = self.cfg.reference_filter_s;
@@ -726,6 +736,9 @@ impl Controller {
             rate_limited,
             integral: self.st.integ,
         };
+        if self.cfg.feedforward {
+            self.advance_model(ts);
+        }
         (u_cmd[0], u_cmd[1])
     }
 }

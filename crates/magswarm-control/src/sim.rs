@@ -110,21 +110,30 @@ where
     S: LogSink + ?Sized,
 {
     let ts = ctrl.sample_time();
-    let mut seg_of = Vec::new();
-    for (i, s) in segments.iter().enumerate() {
-        let n = (s.duration_s / ts).round() as usize;
-        seg_of.extend(std::iter::repeat_n(i, n));
-    }
-    let mut samples = Vec::with_capacity(seg_of.len());
-    let mut feasible = Vec::with_capacity(seg_of.len());
+    // Samples per segment; the driver calls the controller once per sample, in order, so
+    // the segment of a sample is followed with a count-down rather than looked up.
+    let counts: Vec<usize> = segments
+        .iter()
+        .map(|s| (s.duration_s / ts).round() as usize)
+        .collect();
+    let total: usize = counts.iter().sum();
+    let mut samples = Vec::with_capacity(total);
+    let mut feasible = Vec::with_capacity(total);
     let mut t = 0.0;
+    let mut segment = 0;
+    let mut left = counts.first().copied().unwrap_or(0);
     let summary = run_loop(
         plant,
-        seg_of.len() as u64,
+        total as u64,
         ts,
         |tick: &Tick<'_>| {
             let k = tick.k as usize;
-            let seg = segments[seg_of[k]];
+            while left == 0 {
+                segment += 1;
+                left = counts[segment];
+            }
+            left -= 1;
+            let seg = segments[segment];
             let y = tick.reading.r_mm;
             if k == 0 && !keep_controller {
                 ctrl.reset(tick.inputs.z_m, tick.inputs.omega_m, y);
@@ -139,7 +148,7 @@ where
                 r2_mm: y[1],
                 r1_ref_mm: seg.r1,
                 r2_ref_mm: seg.r2,
-                segment: seg_of[k],
+                segment,
                 r1_goal_mm: goal[0],
                 r2_goal_mm: goal[1],
             });

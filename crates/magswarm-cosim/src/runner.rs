@@ -244,7 +244,7 @@ impl CoSimulation {
     }
 
     /// Read the outputs now.
-    #[inline]
+    #[inline(always)]
     pub fn measure(&mut self) -> Result<Measurement> {
         let s = self.slave.get_real(&self.out_vr, &mut self.buf)?;
         if s == Status::Warning {
@@ -267,17 +267,27 @@ impl CoSimulation {
     /// Set the inputs and advance `dt` seconds (the communication step of [`SwarmPlant::step`]).
     #[inline]
     fn advance_by(&mut self, u: Inputs, dt: f64) -> Result<Status> {
-        let u = u.to_array();
-        let bits = u.map(f64::to_bits);
+        let bits = [u.z_m.to_bits(), u.omega_m.to_bits()];
+        // The inputs are stored where they stay (`self.inputs`) and handed to `SetReal` from
+        // there, rather than from a copy on the stack that is read back afterwards: that
+        // read, 16 bytes of two 8-byte stores, cannot be forwarded and waited for the
+        // controller's command to retire (docs/performance.md).
+        let before = self.inputs;
+        self.inputs = [u.z_m, u.omega_m];
         let a = if self.sent == Some(bits) {
             Status::Ok
         } else {
             self.sent = None;
-            let a = self.slave.set_real(&self.in_vr, &u)?;
+            let a = match self.slave.set_real(&self.in_vr, &self.inputs) {
+                Ok(a) => a,
+                Err(e) => {
+                    self.inputs = before;
+                    return Err(e);
+                }
+            };
             self.sent = Some(bits);
             a
         };
-        self.inputs = u;
         let b = self.slave.do_step(self.t, dt)?;
         for s in [a, b] {
             if s == Status::Warning {
@@ -371,7 +381,7 @@ impl SwarmPlant for CoSimulation {
         Inputs::new(self.inputs[0], self.inputs[1])
     }
 
-    #[inline]
+    #[inline(always)]
     fn measure(&mut self) -> std::result::Result<Reading, PlantError> {
         match CoSimulation::measure(self) {
             Ok(m) => Ok(Reading {
