@@ -14,9 +14,9 @@
 //!
 //! Each statistic is the drop of the residual sum of squares (in units of the row noise) that
 //! the alternative achieves, studentised by the visit noise of the residual the alternative
-//! leaves ([`super::noise::Roughness`], its biweight scale: see [`detect`]): a structure that inflates the visit noise of the
-//! current residual (a loss of particles makes returns to a point differ) is judged against
-//! the noise left once it is fitted, an F-type ratio. Its null distribution comes from logs
+//! leaves ([`super::noise::Roughness`], its biweight scale: see [`detect`]): a structure
+//! that inflates the visit noise of the current residual (a loss of particles makes returns
+//! to a point differ) is judged against the noise left once it is fitted, an F-type ratio. Its null distribution comes from logs
 //! of pure noise with the log's design (visits, rows, sessions) and noise structure (visit
 //! offsets and row noise, per axis), each refitted and re-estimated exactly as the real one.
 //! No assumption of independent rows and no reliance on repeat visits: the roughness of the
@@ -345,6 +345,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         }
     }
     let scales: Vec<Scale> = designs.iter().map(|d| d.3).collect();
+    // The transients after a change: studentised by the MAD (above), and not judged jointly.
     let transient: Vec<bool> = designs.iter().map(|d| d.0 == "formation").collect();
     // The same shapes judged on both radii together (the sum of their drops): an effect of
     // both radii (a band where the swarm loses step, a loss of particles) shows in each at
@@ -356,7 +357,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let joint: Vec<(&'static str, &'static str, usize)> = designs
         .iter()
         .enumerate()
-        .filter(|(_, d)| d.0 != "formation")
+        .filter(|&(i, _)| !transient[i])
         .map(|(i, d)| (d.0, d.1, i))
         .collect();
     let solvers: Vec<Solver> = designs

@@ -327,7 +327,7 @@ fn biweight_scale(x: &[f64]) -> f64 {
     if den <= 0.0 {
         return 1.4826 * mad;
     }
-    (x.len() as f64 * num).sqrt() / den.abs()
+    (x.len() as f64 * num).sqrt() / den
 }
 
 /// 1.4826 x the median absolute value (a normal SD for values centred on 0).
