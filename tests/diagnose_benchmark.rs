@@ -7,6 +7,7 @@
 
 use magswarm::diagnose::{self, Config};
 use magswarm::log::Log;
+use magswarm::model::learned::LearnedSteps;
 use magswarm::model::Model;
 use magswarm_scenarios::{scenarios, Protocol, Scenario, Set, Shape, Truth};
 
@@ -83,6 +84,35 @@ fn strong_foreign_effects_are_named_right() {
         let (v, named) = verdict(&sc);
         assert_eq!(v, "right", "{}: named {named:?}", sc.describe());
     }
+}
+
+/// A slow mode only when the swarm grows (it contracts at the model's own pace): a
+/// transient that follows every change keeps half of it, the one that follows the growing
+/// changes keeps it whole, and the model file carries it that way.
+#[test]
+fn a_transient_only_when_the_swarm_grows_is_named_and_written_one_sided() {
+    let sc = one(Shape::SlowGrowth { tau: 7.0 }, 4.0, Protocol::FarSteps, 61);
+    let re = sc.realise();
+    let log = Log::from_str_named(&re.train, "scenario.csv").expect("a valid log");
+    let w = Log::from_str_named(&re.withheld, "withheld.csv").expect("a valid log");
+    let d = diagnose::diagnose(&log, Some(&w), &Model::paper(), &Config::default())
+        .expect("diagnose runs");
+    let v = bench_score::score(&sc, &re, &d);
+    assert_eq!(v, "right", "{}: named {:?}", sc.describe(), d.attr.accepted);
+    let m = d.attr.augmented.full.aug.model_file();
+    let steps: Vec<_> = m
+        .effects
+        .learned
+        .iter()
+        .filter(|t| t.effect == "formation_lag")
+        .map(|t| t.steps)
+        .collect();
+    assert_eq!(
+        steps,
+        vec![LearnedSteps::Growing],
+        "{:?}",
+        m.effects.learned
+    );
 }
 
 #[test]

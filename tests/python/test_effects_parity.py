@@ -43,6 +43,9 @@ EFFECTS = {
         {"effect": "formation_lag", "axis": "since_change_s", "mode": "step_fraction",
          "knots": [0.0, 2.0, 5.0, 10.0], "r1": [-0.8, -0.3, 0.1, 0.0], "r2": [-0.6, -0.2, 0.15, 0.0],
          "sd_r1": [0.05, 0.05, 0.05, 0.05], "sd_r2": [0.05, 0.05, 0.05, 0.05]},
+        # A transient that follows only the changes that make a radius shrink.
+        {"effect": "formation_lag", "axis": "since_change_s", "mode": "step_fraction",
+         "steps": "shrinking", "knots": [0.0, 3.0, 8.0], "r1": [0.5, 0.2, 0.0], "r2": [0.4, 0.1, 0.0]},
     ],
 }
 

@@ -287,7 +287,9 @@ fn apply_learned(aug: &Augmented, m: &Model, ds: &Dataset, map: &[[f64; 2]], out
             for a in 0..2 {
                 match sh.family.mode {
                     Mode::Relative | Mode::Aspect | Mode::Common => out[i][a] *= 1.0 + c[a],
-                    Mode::StepFraction => out[i][a] += c[a] * delta[a],
+                    Mode::StepFraction => {
+                        out[i][a] += c[a] * delta[a] * sh.family.steps.of(delta[a])
+                    }
                     Mode::Add | Mode::Rate => out[i][a] += c[a],
                 }
             }

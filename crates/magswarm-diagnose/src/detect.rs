@@ -9,7 +9,7 @@
 //! | --- | --- |
 //! | `inputs` | a shape over f (bands such as a step-out), a shape over z_m, a smooth surface over (z_m, f) with interaction, the strongest band (every z_m over a run of frequencies, or every f over a run of distances), and the strongest box of neighbouring operating points (a local anomaly) |
 //! | `drift` | a shape over session time (any monotone or sudden course) |
-//! | `formation` | a shape over the time since each input change, scaled by the step of the steady map (any transient: monotone, overshooting, oscillating) |
+//! | `formation` | a shape over the time since each input change, scaled by the step of the steady map (any transient: monotone, overshooting, oscillating), after every change or only after those that make a radius grow, or shrink |
 //! | `lack_of_fit` | a free mean per operating point (only where points were revisited) |
 //!
 //! Each statistic is the drop of the residual sum of squares (in units of the row noise) that
@@ -27,7 +27,7 @@
 use super::data::Dataset;
 use super::linear::{self, Design, Solver};
 use super::noise::{self, Noise};
-use super::shapes::{self, Axis, Family, Mode, RowCtx};
+use super::shapes::{self, Axis, Family, Mode, RowCtx, Steps};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
@@ -106,7 +106,16 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
         ),
     ];
     if let Some(f) = since_family(rc, 0.3, 6) {
-        out.push(("formation", "since_shape", f));
+        out.push(("formation", "since_shape", f.clone()));
+        // A swarm may form one way when it grows and another when it contracts: the same
+        // transient after the changes that make a radius grow only, and after those that
+        // make it shrink only (a symmetric fit averages the two and keeps half of either).
+        for (name, steps) in [
+            ("since_growing", Steps::Growing),
+            ("since_shrinking", Steps::Shrinking),
+        ] {
+            out.push(("formation", name, Family { steps, ..f.clone() }));
+        }
     }
     // An oscillating transient (underdamped formation) turns within a few seconds: knots
     // as dense as the rows' times since a change allow, barely smoothed.

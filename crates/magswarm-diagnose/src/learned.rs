@@ -39,6 +39,7 @@ pub fn term(m: &Model, kind: EffectKind, sh: &Shape, b_mid: f64) -> LearnedTerm 
         sd_r2: Some(scaled(&sh.sd[1])),
         field_exponent: nu,
         amplitude_exponent: f.amp,
+        steps: f.steps,
     }
 }
 

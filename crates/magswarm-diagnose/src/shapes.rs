@@ -12,7 +12,7 @@
 //! | `cohesion_loss` | z_m | a relative change shared by both radii, or mm added to one radius |
 //! | `particle_drift` | session time | relative change of the observed radii |
 //! | `centroid_offset` | z_m, or f with an amplitude going as `d^-2` (`(B/B_mid)^(2/3)`) | an aspect change: r1 and r2 in opposite proportion, r1's at 1/2, 1 or 2 times r2's |
-//! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating; optionally only what varies within each visit, for naming) |
+//! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating; after every change, or only after those that make a radius grow, or shrink; optionally only what varies within each visit, for naming) |
 //!
 //! The heights are unknowns of a penalised linear model ([`super::linear`]): the roughness
 //! penalty keeps a shape smooth unless the data insist (a sudden particle loss is a steep
@@ -131,7 +131,15 @@ pub struct Family {
     /// the axis nothing makes the two principal directions deform equally; the variants
     /// take one to be twice or half the other, beside equal.
     pub ratio: f64,
+    /// For [`Mode::StepFraction`]: the input changes whose transient the shape describes,
+    /// per radius by the sign of the step of the steady map. A swarm need not form the same
+    /// way when it grows (particles gathered from further out) as when it contracts.
+    pub steps: Steps,
 }
+
+/// Which input changes a transient follows, per radius by the sign of its step: the model
+/// file's own (a learned term carries it as is).
+pub use magswarm_model::learned::LearnedSteps as Steps;
 
 impl Family {
     /// A family acting on both radii, unscaled by the field, heights free at every knot.
@@ -148,6 +156,7 @@ impl Family {
             monotone: None,
             within: false,
             ratio: 1.0,
+            steps: Steps::All,
         }
     }
 }
@@ -307,7 +316,7 @@ impl RowCtx {
             * match f.mode {
                 Mode::Add => 1.0,
                 Mode::Relative | Mode::Common => self.pred[i][a],
-                Mode::StepFraction => self.delta[i][a],
+                Mode::StepFraction => self.delta[i][a] * f.steps.of(self.delta[i][a]),
                 Mode::Rate => -self.dmap_df[i][a],
                 Mode::Aspect => self.pred[i][a] * if a == 0 { -f.ratio } else { 1.0 },
             }
@@ -456,6 +465,7 @@ mod tests {
                 within: false,
                 smooth: 0.0,
                 ratio: 1.0,
+                steps: Steps::All,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],
             sd: [vec![0.0; 3], vec![0.0; 3]],

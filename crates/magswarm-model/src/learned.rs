@@ -64,6 +64,38 @@ pub enum LearnedMode {
     StepFraction,
 }
 
+/// The input changes a `step_fraction` term follows, per radius by the sign of that radius'
+/// step: a swarm need not form the same way when it grows as when it contracts.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LearnedSteps {
+    /// Every change.
+    #[default]
+    #[serde(rename = "all")]
+    All,
+    /// Changes that make the radius grow (a positive step).
+    #[serde(rename = "growing")]
+    Growing,
+    /// Changes that make the radius shrink (a negative step).
+    #[serde(rename = "shrinking")]
+    Shrinking,
+}
+
+impl LearnedSteps {
+    /// Share (1 or 0) of a step `delta` \[mm\] the term follows.
+    #[inline]
+    pub fn of(self, delta: f64) -> f64 {
+        match self {
+            LearnedSteps::All => 1.0,
+            LearnedSteps::Growing => f64::from(u8::from(delta > 0.0)),
+            LearnedSteps::Shrinking => f64::from(u8::from(delta < 0.0)),
+        }
+    }
+
+    fn is_all(&self) -> bool {
+        *self == LearnedSteps::All
+    }
+}
+
 /// One learned term.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -92,6 +124,9 @@ pub struct LearnedTerm {
     /// Field exponent of the value's amplitude [-].
     #[serde(default, skip_serializing_if = "is_zero")]
     pub amplitude_exponent: f64,
+    /// The input changes a `step_fraction` term follows (default `all`).
+    #[serde(default, skip_serializing_if = "LearnedSteps::is_all")]
+    pub steps: LearnedSteps,
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -119,7 +154,8 @@ impl LearnedTerm {
     /// Check the term: a known effect (one of `known_effects`, the model file's effect names,
     /// passed in so this module stays below the effects), at least two strictly increasing
     /// finite knots, heights (and SDs) of the knots' length, finite (SDs non-negative),
-    /// `step_fraction` only along `since_change_s`, finite exponents.
+    /// `step_fraction` only along `since_change_s` (and `steps` other than `all` only with it),
+    /// finite exponents.
     pub fn validate(&self, known_effects: &[&str]) -> Result<(), LearnedError> {
         if !known_effects.contains(&self.effect.as_str()) {
             return Err(err(
@@ -178,6 +214,12 @@ impl LearnedTerm {
             return Err(err(
                 "mode",
                 "step_fraction goes with the axis since_change_s, and since_change_s with step_fraction only".into(),
+            ));
+        }
+        if self.steps != LearnedSteps::All && self.mode != LearnedMode::StepFraction {
+            return Err(err(
+                "steps",
+                "only a step_fraction term follows growing or shrinking steps".into(),
             ));
         }
         if self.mode == LearnedMode::RateHz
@@ -256,6 +298,7 @@ mod tests {
             sd_r2: None,
             field_exponent: 0.0,
             amplitude_exponent: 0.0,
+            steps: LearnedSteps::All,
         }
     }
 
@@ -279,6 +322,18 @@ mod tests {
             e.message.contains("not strictly increasing at index 2"),
             "{e}"
         );
+        // A direction only for a transient's step.
+        let mut t = term();
+        t.steps = LearnedSteps::Growing;
+        let e = t.validate(&crate::effect_kind::NAMES).unwrap_err();
+        assert_eq!(e.field, "steps", "{e}");
+        t.axis = LearnedAxis::SinceChangeS;
+        t.mode = LearnedMode::StepFraction;
+        t.effect = "formation_lag".into();
+        assert!(t.validate(&crate::effect_kind::NAMES).is_ok());
+        let json = serde_json::to_string(&t).unwrap();
+        assert!(json.contains(r#""steps":"growing""#), "{json}");
+        assert!(!serde_json::to_string(&term()).unwrap().contains("steps"));
         let mut t = term();
         t.r2.pop();
         assert_eq!(

@@ -1,7 +1,7 @@
 //! Learned effect terms (`effects.learned`): what each axis and mode does to the plant's
 //! outputs, their neutrality, their Jacobian, the model file's checks and the plant state.
 
-use magswarm_model::learned::{LearnedAxis, LearnedMode, LearnedTerm};
+use magswarm_model::learned::{LearnedAxis, LearnedMode, LearnedSteps, LearnedTerm};
 use magswarm_model::{hz_to_rad_s as hz, steady, Model, Plant};
 
 fn term(
@@ -28,6 +28,7 @@ fn term(
         sd_r2: None,
         field_exponent: 0.0,
         amplitude_exponent: 0.0,
+        steps: Default::default(),
     }
 }
 
@@ -205,6 +206,53 @@ fn a_step_fraction_holds_the_response_back_after_each_change_then_lets_go() {
         "lag {lag} step {step}"
     );
     assert!((a[69][1] - b[69][1]).abs() < 1e-12);
+}
+
+/// A transient that follows only growing steps: after the z_m step (r2 grows) the measured
+/// radius lags as with every step; after a change that shrinks the radii, nothing. The
+/// shrinking-only term does the opposite, and the two together are the term for every step.
+#[test]
+fn a_one_sided_step_fraction_follows_only_its_own_direction() {
+    let one = |steps| LearnedTerm {
+        steps,
+        ..term(
+            LearnedAxis::SinceChangeS,
+            LearnedMode::StepFraction,
+            &[0.0, 10.0],
+            &[-1.0, 0.0],
+            &[-1.0, 0.0],
+        )
+    };
+    // z_m 8.5 -> 18.5 mm (radii grow), then 18.5 -> 6 mm (radii shrink).
+    let sched = [(20.0, 8.5, 4.0), (30.0, 18.5, 4.0), (30.0, 6.0, 4.0)];
+    let plain = run(&Model::paper(), &sched);
+    let all = run(&with(vec![one(LearnedSteps::All)]), &sched);
+    let grow = run(&with(vec![one(LearnedSteps::Growing)]), &sched);
+    let shrink = run(&with(vec![one(LearnedSteps::Shrinking)]), &sched);
+    let both = run(
+        &with(vec![
+            one(LearnedSteps::Growing),
+            one(LearnedSteps::Shrinking),
+        ]),
+        &sched,
+    );
+    assert!(plain[99][1] > plain[39][1] && plain[159][1] < plain[99][1]);
+    // 2 s after the growing step (row 43) and after the shrinking one (row 103).
+    for (row, lags, free) in [(43, &grow, &shrink), (103, &shrink, &grow)] {
+        assert!(
+            (lags[row][1] - plain[row][1]).abs() > 0.5,
+            "row {row}: {:?} against {:?}",
+            lags[row],
+            plain[row]
+        );
+        assert_eq!(lags[row], all[row], "row {row}");
+        assert_eq!(free[row], plain[row], "row {row}");
+    }
+    for row in [43, 103, 150] {
+        for i in 0..2 {
+            assert!((both[row][i] - all[row][i]).abs() < 1e-12, "row {row}");
+        }
+    }
 }
 
 #[test]

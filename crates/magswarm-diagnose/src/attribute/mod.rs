@@ -52,7 +52,7 @@ use super::fitter::{self, FitResult};
 use super::gap::{self, Region};
 use super::linear::{self, Design, Monotone, Solver};
 use super::noise::{self, Noise};
-use super::shapes::{self, Axis, Family, Mode, RowCtx, Shape};
+use super::shapes::{self, Axis, Family, Mode, RowCtx, Shape, Steps};
 use magswarm_identify::params::{self, Free};
 use magswarm_identify::Progress;
 use magswarm_model::effects::EffectKind;

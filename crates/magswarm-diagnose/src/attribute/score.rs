@@ -106,6 +106,9 @@ pub(super) fn score_round(
                         None => [1.0, 1.0],
                     };
                     let g = gain(&cur_s, s, y, rho);
+                    if real.is_none() {
+                        log::debug!("{}: {} gains {g:.1}", cands[ci].0.name(), describe(v));
+                    }
                     if g > best.0 {
                         best = (g, vi);
                     }

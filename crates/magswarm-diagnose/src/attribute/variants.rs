@@ -115,6 +115,15 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                 })
             })
             .collect();
+        // A swarm that forms one way when it grows and another when it contracts: the
+        // transient after the changes that make a radius grow only, or shrink only.
+        for steps in [Steps::Growing, Steps::Shrinking] {
+            v.push(Variant::Shape(Family {
+                smooth: 1.0,
+                steps,
+                ..f.clone()
+            }));
+        }
         // Any stable transient, an underdamped one included: knots as dense as the rows'
         // times since a change allow, where they resolve more than the coarse family does.
         if let Some(fine) = detect::since_family(rc, 0.01, detect::SINCE_FINE_KNOTS)
@@ -323,6 +332,11 @@ pub(super) fn describe(v: &Variant) -> String {
             }
             if f.amp != 0.0 {
                 extra += &format!(", amplitude (B/B_mid)^{:.3}", f.amp);
+            }
+            match f.steps {
+                Steps::All => {}
+                Steps::Growing => extra += ", after the changes that make a radius grow",
+                Steps::Shrinking => extra += ", after the changes that make a radius shrink",
             }
             format!(
                 "learned shape over {} ({} knots, smoothing {}{extra})",

@@ -79,6 +79,7 @@ fn envelope_validity_is_the_classification_of_the_inputs() {
         sd_r2: None,
         field_exponent: 0.0,
         amplitude_exponent: 0.0,
+        steps: Default::default(),
     });
     for m in [paper, slowed] {
         for table in [false, true] {
