@@ -756,6 +756,19 @@ impl Controller {
                 return (d.m, false);
             }
         }
+        // The lean reference keeps the map's Jacobian at its inputs, the feedforward: during
+        // a ramp the command is the feedforward but for corrections far below the schedule's
+        // resolution, so the map need not be evaluated a second time at (nearly) the same
+        // point.
+        if let Some(RefModel::Lean(r)) = &self.st.model_plant {
+            let at = r.inputs();
+            let x_at = self.scale.x_of(at);
+            if (x[0] - x_at[0]).abs() <= res && (x[1] - x_at[1]).abs() <= res {
+                let d = self.decoupler_from(at, &r.map_jacobian());
+                self.st.decoupler = Some(d);
+                return (d.m, true);
+            }
+        }
         let d = self.decoupler_at(u);
         self.st.decoupler = Some(d);
         (d.m, true)
@@ -764,7 +777,12 @@ impl Controller {
     /// Damped inverse of the normalised Jacobian at inputs u, computed.
     fn decoupler_at(&self, u: [f64; 2]) -> Decoupler {
         let sp = steady::evaluate(&self.model, u[0], u[1]);
-        let jx = self.scale.jac_x(&sp.jac);
+        self.decoupler_from(u, &sp.jac)
+    }
+
+    /// Damped inverse of the normalised Jacobian at inputs u, from the map's Jacobian there.
+    fn decoupler_from(&self, u: [f64; 2], jac: &mat2::M2) -> Decoupler {
+        let jx = self.scale.jac_x(jac);
         let lambda = self.cfg.decoupler_damping * mat2::singular_values(&jx)[0];
         Decoupler {
             at: u,

@@ -43,6 +43,9 @@ pub(crate) struct Reference {
     c: Coefficients,
     /// The steady map's radii at them \[mm\] (where a non-finite step puts the state).
     steady: [f64; 2],
+    /// The steady map's Jacobian there, d(r1, r2)/d(z_m, omega) (the controller's
+    /// decoupler takes it when the command is this close to the feedforward).
+    jac: [[f64; 2]; 2],
     /// Radii (r1, r2) \[mm\].
     r: [f64; 2],
     /// The last step left `r` bit for bit unchanged under `c`: the next is skipped.
@@ -122,11 +125,14 @@ fn cube(g: f64, c: f64) -> f64 {
 impl Reference {
     /// At state `r` \[mm\] under inputs `u` (z_m \[m\], omega [rad/s]).
     pub(crate) fn new(model: &Model, u: [f64; 2], r: [f64; 2]) -> Reference {
-        let t = InputTerms::values(model, u[0], u[1]);
+        // With the Jacobian: the same coefficients bit for bit (`InputTerms::values`), and
+        // the decoupler's Jacobian at the feedforward for a little more.
+        let t = InputTerms::new(model, u[0], u[1]);
         Reference {
             u,
             c: Coefficients::of(&t, model),
             steady: t.steady.radii(),
+            jac: t.steady.jac,
             r,
             rest: false,
         }
@@ -150,6 +156,19 @@ impl Reference {
     #[inline]
     pub(crate) fn state(&self) -> [f64; 2] {
         self.r
+    }
+
+    /// The inputs in force (z_m \[m\], omega [rad/s]).
+    #[inline]
+    pub(crate) fn inputs(&self) -> [f64; 2] {
+        self.u
+    }
+
+    /// The steady map's Jacobian at [`Reference::inputs`], d(r1, r2)/d(z_m \[m\],
+    /// omega [rad/s]) [mm/m, mm s/rad]: that of `steady::evaluate` there.
+    #[inline]
+    pub(crate) fn map_jacobian(&self) -> [[f64; 2]; 2] {
+        self.jac
     }
 
     /// Hold inputs `u` from now on (the terms are recomputed only when they change); whether
