@@ -23,12 +23,15 @@
 //! - `replay`: the FMU and importer alone, replaying the commands of one PID run (no
 //!   controller), `--runs=K`;
 //! - `closed-loop`: the same scenario in process (controller and `Plant`, no FMI), `--runs=K`.
+//!
+//! The controller is `Fidelity::Lean` (the default); `--full` runs `Fidelity::Full`, the
+//! controller before round perf18, in the same binary.
 
 use std::hint::black_box;
 use std::path::Path;
 
 use anyhow::{bail, Context, Result};
-use magswarm::control::{seed_scenario, sim, Controller, PidConfig};
+use magswarm::control::{seed_scenario, sim, Controller, Fidelity, PidConfig};
 use magswarm::control::{Inputs, SwarmPlant};
 use magswarm::cosim::{CoSimConfig, CoSimulation, Fmu, NoLog};
 use magswarm::model::dynamics::InputTerms;
@@ -59,6 +62,12 @@ fn main() -> Result<()> {
         sample_time_s: h,
         ..PidConfig::default()
     };
+    let fidelity = if args.iter().any(|a| a == "--full") {
+        Fidelity::Full
+    } else {
+        Fidelity::Lean
+    };
+    let new_ctrl = |cfg: PidConfig| Controller::with_fidelity(Model::paper(), cfg, fidelity);
     let co_cfg = CoSimConfig {
         step_s: h,
         initial_inputs: [sim::SEED_START.0, sim::SEED_START.1],
@@ -106,7 +115,7 @@ fn main() -> Result<()> {
             let fmu = load()?;
             for _ in 0..runs {
                 let mut co = CoSimulation::new(&fmu, &co_cfg)?;
-                let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+                let mut ctrl = new_ctrl(cfg.clone())?;
                 let t0 = std::time::Instant::now();
                 let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
                 report(run.samples.len(), t0, run.summary.last.r_mm[0]);
@@ -118,7 +127,7 @@ fn main() -> Result<()> {
             // scenario costs at the least with this FMU and importer.
             let fmu = load()?;
             let mut co = CoSimulation::new(&fmu, &co_cfg)?;
-            let mut ctrl = Controller::new(Model::paper(), cfg)?;
+            let mut ctrl = new_ctrl(cfg.clone())?;
             let run = sim::tracking(&mut co, &mut ctrl, &seed_scenario(), false, &mut NoLog)?;
             let cmds: Vec<Inputs> = run
                 .samples
@@ -139,10 +148,10 @@ fn main() -> Result<()> {
             // The controller alone: the measurements and setpoints of one in-process run
             // fed to a fresh controller (no plant, no importer), `--runs=K`.
             let mut plant = Plant::new(Model::paper(), sim::SEED_START.0, sim::SEED_START.1);
-            let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+            let mut ctrl = new_ctrl(cfg.clone())?;
             let s = sim::closed_loop(&mut plant, &mut ctrl, &seed_scenario(), false);
             for _ in 0..runs {
-                let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+                let mut ctrl = new_ctrl(cfg.clone())?;
                 let first = &s[0];
                 ctrl.reset(sim::SEED_START.0, sim::SEED_START.1, [first.r1_mm, first.r2_mm]);
                 let t0 = std::time::Instant::now();
@@ -157,7 +166,7 @@ fn main() -> Result<()> {
             // The same scenario in process: the controller and the plant without FMI.
             for _ in 0..runs {
                 let mut plant = Plant::new(Model::paper(), sim::SEED_START.0, sim::SEED_START.1);
-                let mut ctrl = Controller::new(Model::paper(), cfg.clone())?;
+                let mut ctrl = new_ctrl(cfg.clone())?;
                 let t0 = std::time::Instant::now();
                 let s = sim::closed_loop(&mut plant, &mut ctrl, &seed_scenario(), false);
                 report(s.len(), t0, s.last().map_or(f64::NAN, |x| x.r1_mm));

@@ -55,13 +55,15 @@ pub mod linearize;
 mod mat2;
 pub mod pid;
 pub mod plant;
+mod reference;
 pub mod sim;
 
 pub use driver::{run_loop, Command, LogSink, LoopError, LoopSummary, Tick};
 pub use inverse::{inverse, inverse_with, InverseOptions, InverseResult};
 pub use linearize::{linearize, Linearization};
 pub use pid::{
-    ConfigError, Controller, ControllerSnapshot, Gains, Limits, PidConfig, StepInfo, CONFIG_SCHEMA,
+    ConfigError, Controller, ControllerSnapshot, Fidelity, Gains, Limits, PidConfig, StepInfo,
+    CONFIG_SCHEMA,
 };
 pub use plant::{Inputs, PlantError, Reading, SwarmPlant};
 pub use sim::{

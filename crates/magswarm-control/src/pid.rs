@@ -42,10 +42,101 @@ use serde::{Deserialize, Serialize};
 
 use crate::inverse::{inverse_with, InverseOptions, InverseResult, Scale};
 use crate::mat2;
+use crate::reference::Reference;
+
+/// How finely the controller computes the parts of a sample that the PID's action does not
+/// resolve: its reference model, the decoupler's schedule and the command's resolution.
+///
+/// [`Fidelity::Lean`] (the default) moves the commands by amounts far below what the
+/// actuators resolve and the radii by far less than any tracking error (below 1e-12 mm in
+/// the seed's scenario at 1 kHz, docs/performance.md "Round perf18"), for about half the
+/// controller's work per sample and, through the plant, a quarter of the input changes.
+/// [`Fidelity::Full`] is the controller as it was before: the yardstick the closed-loop
+/// tests compare the lean one with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Fidelity {
+    /// Reference from ODE (4) by fixed-step fourth-order Runge-Kutta (`crate::reference`),
+    /// commands held within [`COMMAND_RESOLUTION`] of the last one, errors within
+    /// [`INTEGRAL_DEADBAND_MM`] not integrated, the derivative's filter snapped to its input
+    /// within [`DERIVATIVE_SNAP_MM`], and a sample that finds the controller at rest under
+    /// the same measurement and setpoint answered from the last one.
+    #[default]
+    Lean,
+    /// Reference from the full plant model (its Dormand-Prince integrator at rtol 1e-8),
+    /// every command passed on to its last bit, every error integrated, every sample
+    /// computed: the controller as it was before round perf18 of docs/performance.md.
+    Full,
+}
 
 /// Resolution of the decoupler's schedule, in fractions of the envelope's spans (see
-/// `Controller::decoupler`).
+/// `Controller::decoupler`). Both fidelities: a coarser one (1e-3 of the spans, which
+/// would skip nine in ten Jacobians during a ramp at 1 kHz) left the loop with a plant 1 %
+/// off the model in a limit cycle of about 8e-4 of the frequency's span at 20 Hz, where
+/// this one settles (docs/performance.md, round perf18).
 const DECOUPLER_RESOLUTION: f64 = 1e-12;
+
+/// Smallest change of the command that [`Fidelity::Lean`] passes on, in fractions of the
+/// envelope's spans on either input (2e-12 m of z_m, 1e-9 Hz of the frequency with the
+/// default limits): a smaller one is held at the last command. The PID's corrections move
+/// the command in its last bits on most samples of a transient (1e-16 of a span: the
+/// measurement and the model's prediction differ by rounding), and each such change costs
+/// the plant an input change (an FMU: the map, the gains and a fresh integration step) for
+/// nothing an actuator could carry out. The radii it holds back are at most the map's
+/// slope times this, about 1e-9 mm; the integral keeps integrating the error behind it, so
+/// a correction that matters still comes through, one resolution at a time.
+pub const COMMAND_RESOLUTION: f64 = 1e-10;
+
+/// Tracking errors at most this large \[mm\] are not integrated with [`Fidelity::Lean`].
+/// The controller's model and the plant it models tell equilibria apart by about this much
+/// and less even when they are the same model: a plant (an FMU) evaluating its map from
+/// tables answers within the tables' proven bound (2.9e-11 mm), and two integrators come to
+/// rest at fixed points of their own steps (about 1e-12 mm apart). The integral would
+/// integrate such an error for as long as the run lasts and move the command by a
+/// resolution now and then (each time starting a transient of the plant of some seconds);
+/// the proportional and derivative parts still see it, and any error larger than this is
+/// integrated as before. The radii it leaves are within this of the reference.
+pub const INTEGRAL_DEADBAND_MM: f64 = 1e-9;
+
+/// With [`Fidelity::Lean`] the derivative's filter takes its input's value once within this
+/// of it \[mm\]. Without it the filter creeps towards a constant input for ever (each sample
+/// closes a hundredth of the gap at 1 kHz; towards an input of exactly zero it reaches the
+/// subnormal numbers after about 70 s, whose arithmetic is slow), so a controller whose
+/// plant has come to rest never comes to rest itself. The derivative this adds is at most
+/// this over the sample time, times kd (2e-11 mm at the defaults and 1 kHz).
+pub const DERIVATIVE_SNAP_MM: f64 = 1e-12;
+
+/// The resolutions of a [`Fidelity`] (a negative one: none).
+#[derive(Debug, Clone, Copy)]
+struct Resolutions {
+    /// Of the command, fractions of the spans.
+    command: f64,
+    /// The integral's deadband \[mm\].
+    integral_mm: f64,
+    /// Where the derivative's filter snaps to its input \[mm\].
+    derivative_mm: f64,
+    /// Whether a sample that finds the controller where the last one left it, with the
+    /// same measurement and setpoint, returns the last command (see `Controller::step`).
+    memo: bool,
+}
+
+impl Fidelity {
+    fn resolutions(self) -> Resolutions {
+        match self {
+            Fidelity::Lean => Resolutions {
+                command: COMMAND_RESOLUTION,
+                integral_mm: INTEGRAL_DEADBAND_MM,
+                derivative_mm: DERIVATIVE_SNAP_MM,
+                memo: true,
+            },
+            Fidelity::Full => Resolutions {
+                command: -1.0,
+                integral_mm: -1.0,
+                derivative_mm: -1.0,
+                memo: false,
+            },
+        }
+    }
+}
 
 /// Schema tag of a controller configuration.
 pub const CONFIG_SCHEMA: &str = "magswarm-pid/1";
@@ -274,7 +365,7 @@ struct State {
     /// Prefiltered setpoint (without feedforward) [mm].
     r_pre: [f64; 2],
     /// Internal model (with feedforward).
-    model_plant: Option<Plant>,
+    model_plant: Option<RefModel>,
     /// Setpoint the status below belongs to.
     setpoint: [f64; 2],
     status: Option<InverseResult>,
@@ -286,6 +377,82 @@ struct State {
     /// The decoupler in force, the inputs it was computed at and those in normalised units
     /// (see [`Controller::decoupler`]).
     decoupler: Option<Decoupler>,
+    /// The measurement and setpoint (bits) of the last sample, if that sample left the
+    /// state as it found it (see [`Controller::step`]; a cache: not in snapshots).
+    quiet: Option<[u64; 4]>,
+}
+
+/// Sets `slot` to `v` and says whether that changed its bits (the state changes a sample
+/// makes, see `Controller::step`).
+#[inline(always)]
+fn set2(slot: &mut [f64; 2], v: [f64; 2]) -> bool {
+    let moved = slot[0].to_bits() != v[0].to_bits() || slot[1].to_bits() != v[1].to_bits();
+    *slot = v;
+    moved
+}
+
+/// The controller's model of the plant, whose state is the reference (see [`Fidelity`]).
+#[derive(Debug, Clone)]
+enum RefModel {
+    Lean(Reference),
+    Full(Box<Plant>),
+}
+
+impl RefModel {
+    /// At state `r` \[mm\] under inputs `u` (z_m \[m\], omega [rad/s]).
+    fn new(fidelity: Fidelity, model: &Model, u: [f64; 2], r: [f64; 2]) -> RefModel {
+        match fidelity {
+            Fidelity::Lean => RefModel::Lean(Reference::new(model, u, r)),
+            Fidelity::Full => {
+                let mut p = Plant::new(model.clone(), u[0], u[1]);
+                p.set_state(r);
+                RefModel::Full(Box::new(p))
+            }
+        }
+    }
+
+    fn from_snapshot(fidelity: Fidelity, model: &Model, s: &PlantSnapshot) -> RefModel {
+        match fidelity {
+            Fidelity::Lean => RefModel::Lean(Reference::from_snapshot(model, s)),
+            Fidelity::Full => RefModel::Full(Box::new(Plant::from_snapshot(model.clone(), s))),
+        }
+    }
+
+    fn snapshot(&self, model: &Model) -> PlantSnapshot {
+        match self {
+            RefModel::Lean(r) => r.snapshot(model),
+            RefModel::Full(p) => p.snapshot(),
+        }
+    }
+
+    /// The reference \[mm\].
+    #[inline]
+    fn state(&self) -> [f64; 2] {
+        match self {
+            RefModel::Lean(r) => r.state(),
+            RefModel::Full(p) => p.state(),
+        }
+    }
+
+    /// Advanced by `ts` under inputs `u`; whether that changed anything the next advance
+    /// reads (true for the full model, whose clock and step counts always move).
+    #[inline]
+    fn advance(&mut self, model: &Model, u: [f64; 2], ts: f64) -> bool {
+        match self {
+            RefModel::Lean(r) => {
+                let changed = r.set_inputs(model, u);
+                r.advance(ts) || changed
+            }
+            RefModel::Full(p) => {
+                p.set_inputs(u[0], u[1]);
+                if p.step(ts).is_err() {
+                    // Never expected inside the envelope; fall back to the map.
+                    p.settle();
+                }
+                true
+            }
+        }
+    }
 }
 
 /// The decoupler in force (see [`Controller::decoupler`]).
@@ -357,20 +524,35 @@ impl Derived {
 pub struct Controller {
     model: Model,
     cfg: PidConfig,
+    fidelity: Fidelity,
+    /// `fidelity.resolutions()`.
+    res: Resolutions,
     scale: Scale,
     derived: Derived,
     st: State,
 }
 
 impl Controller {
-    /// A controller for `model` (used for the feedforward, the decoupler and the reference).
+    /// A controller for `model` (used for the feedforward, the decoupler and the reference),
+    /// [`Fidelity::Lean`].
     pub fn new(model: Model, cfg: PidConfig) -> Result<Controller, ConfigError> {
+        Controller::with_fidelity(model, cfg, Fidelity::default())
+    }
+
+    /// A controller for `model` with the given [`Fidelity`].
+    pub fn with_fidelity(
+        model: Model,
+        cfg: PidConfig,
+        fidelity: Fidelity,
+    ) -> Result<Controller, ConfigError> {
         cfg.validate()?;
         let scale = Scale::new(&cfg.limits.envelope());
         let derived = Derived::of(&cfg, &scale);
         Ok(Controller {
             model,
             cfg,
+            fidelity,
+            res: fidelity.resolutions(),
             scale,
             derived,
             st: State {
@@ -388,6 +570,7 @@ impl Controller {
                 last: StepInfo::default(),
                 gains_before: None,
                 decoupler: None,
+                quiet: None,
             },
         })
     }
@@ -395,6 +578,11 @@ impl Controller {
     /// The configuration.
     pub fn config(&self) -> &PidConfig {
         &self.cfg
+    }
+
+    /// How finely the controller computes a sample (see [`Fidelity`]).
+    pub fn fidelity(&self) -> Fidelity {
+        self.fidelity
     }
 
     /// The model the controller uses.
@@ -422,19 +610,17 @@ impl Controller {
         st.integ = [0.0; 2];
         st.gains_before = None;
         st.decoupler = None;
+        st.quiet = None;
         st.r_pre = measurement;
         st.d_filt = if self.cfg.feedforward {
             [0.0; 2]
         } else {
             [-measurement[0], -measurement[1]]
         };
-        st.model_plant = if self.cfg.feedforward {
-            let mut p = Plant::new(self.model.clone(), u[0], u[1]);
-            p.set_state(measurement);
-            Some(p)
-        } else {
-            None
-        };
+        st.model_plant = self
+            .cfg
+            .feedforward
+            .then(|| RefModel::new(self.fidelity, &self.model, u, measurement));
     }
 
     /// The mutable state as data (sizes do not grow with the run's length).
@@ -447,7 +633,7 @@ impl Controller {
             integ: st.integ,
             d_filt: st.d_filt,
             r_pre: st.r_pre,
-            model_plant: st.model_plant.as_ref().map(Plant::snapshot),
+            model_plant: st.model_plant.as_ref().map(|m| m.snapshot(&self.model)),
             setpoint: (!st.setpoint[0].is_nan()).then_some(st.setpoint),
             status: st.status,
             last: st.last,
@@ -474,7 +660,7 @@ impl Controller {
             model_plant: s
                 .model_plant
                 .as_ref()
-                .map(|p| Plant::from_snapshot(model.clone(), p)),
+                .map(|p| RefModel::from_snapshot(self.fidelity, model, p)),
             setpoint: s.setpoint.unwrap_or([f64::NAN; 2]),
             status: s.status,
             x_goal: s
@@ -483,6 +669,7 @@ impl Controller {
             last: s.last,
             gains_before: s.gains_before,
             decoupler: None,
+            quiet: None,
         };
         self.st.decoupler = s.decoupler_at.map(|u| self.decoupler_at(u));
     }
@@ -496,6 +683,7 @@ impl Controller {
         }
         self.cfg.gains = gains;
         self.derived = Derived::of(&self.cfg, &self.scale);
+        self.st.quiet = None;
     }
 
     /// The inverse-map result for the setpoint in force: the reachable setpoint, whether the
@@ -559,24 +747,42 @@ impl Controller {
     /// so a restored controller continues bit for bit.
     ///
     /// `x` is `u` in normalised units (`Scale::x_of(u)`, which the caller has at hand).
-    fn decoupler(&mut self, u: [f64; 2], x: [f64; 2]) -> mat2::M2 {
+    /// Also says whether it was computed now (a change of the state).
+    fn decoupler(&mut self, u: [f64; 2], x: [f64; 2]) -> (mat2::M2, bool) {
+        let res = DECOUPLER_RESOLUTION;
         if let Some(d) = self.st.decoupler {
             let x_at = d.x_at;
-            if (x[0] - x_at[0]).abs() <= DECOUPLER_RESOLUTION
-                && (x[1] - x_at[1]).abs() <= DECOUPLER_RESOLUTION
-            {
-                return d.m;
+            if (x[0] - x_at[0]).abs() <= res && (x[1] - x_at[1]).abs() <= res {
+                return (d.m, false);
+            }
+        }
+        // The lean reference keeps the map's Jacobian at its inputs, the feedforward: during
+        // a ramp the command is the feedforward but for corrections far below the schedule's
+        // resolution, so the map need not be evaluated a second time at (nearly) the same
+        // point.
+        if let Some(RefModel::Lean(r)) = &self.st.model_plant {
+            let at = r.inputs();
+            let x_at = self.scale.x_of(at);
+            if (x[0] - x_at[0]).abs() <= res && (x[1] - x_at[1]).abs() <= res {
+                let d = self.decoupler_from(at, &r.map_jacobian());
+                self.st.decoupler = Some(d);
+                return (d.m, true);
             }
         }
         let d = self.decoupler_at(u);
         self.st.decoupler = Some(d);
-        d.m
+        (d.m, true)
     }
 
     /// Damped inverse of the normalised Jacobian at inputs u, computed.
     fn decoupler_at(&self, u: [f64; 2]) -> Decoupler {
         let sp = steady::evaluate(&self.model, u[0], u[1]);
-        let jx = self.scale.jac_x(&sp.jac);
+        self.decoupler_from(u, &sp.jac)
+    }
+
+    /// Damped inverse of the normalised Jacobian at inputs u, from the map's Jacobian there.
+    fn decoupler_from(&self, u: [f64; 2], jac: &mat2::M2) -> Decoupler {
+        let jx = self.scale.jac_x(jac);
         let lambda = self.cfg.decoupler_damping * mat2::singular_values(&jx)[0];
         Decoupler {
             at: u,
@@ -587,27 +793,53 @@ impl Controller {
 
     /// The model for the reference advanced by one sample under the feedforward `u_ff` of
     /// this sample (its state is the reference of the next one).
+    /// Whether that changed anything the next advance reads.
     #[inline]
-    fn advance_model(&mut self, ts: f64) {
+    fn advance_model(&mut self, ts: f64) -> bool {
         let u_ff = self.st.u_ff;
         let p = self.st.model_plant.as_mut().expect("reset made it");
-        p.set_inputs(u_ff[0], u_ff[1]);
-        if p.step(ts).is_err() {
-            // Never expected inside the envelope; fall back to the map.
-            p.settle();
-        }
+        p.advance(&self.model, u_ff, ts)
     }
 
     /// One sample: measurement (r1, r2) [mm] and setpoint (r1*, r2*) [mm] in, inputs
     /// (z_m [m], omega [rad/s]) to hold until the next sample out. The first call without
     /// [`Controller::reset`] starts at the feedforward of the setpoint.
+    ///
+    /// With [`Fidelity::Lean`], a sample that comes with the measurement and setpoint of the
+    /// last one, when that one left the controller's state bit for bit as it found it,
+    /// returns the last command without computing it: the sample is a deterministic
+    /// function of the state and those two, so it would compute the same command and leave
+    /// the state as it is (the same `last()` too). Once the plant and the controller's
+    /// model have come to rest (the deadbands above let the controller's state come to rest
+    /// with them), that is most samples of a tracking run.
     pub fn step(&mut self, measurement: [f64; 2], setpoint: [f64; 2]) -> (f64, f64) {
+        let now = [measurement, setpoint];
+        let key = [
+            now[0][0].to_bits(),
+            now[0][1].to_bits(),
+            now[1][0].to_bits(),
+            now[1][1].to_bits(),
+        ];
+        if self.st.quiet == Some(key) {
+            return (self.st.u[0], self.st.u[1]);
+        }
+        let (out, moved) = self.compute(measurement, setpoint);
+        self.st.quiet = (self.res.memo && !moved).then_some(key);
+        out
+    }
+
+    /// [`Controller::step`], computed, and whether the sample changed anything in the state
+    /// that a sample reads (`moved`: every write below that may change a bit says so).
+    #[inline(always)]
+    fn compute(&mut self, measurement: [f64; 2], setpoint: [f64; 2]) -> ((f64, f64), bool) {
         let ts = self.cfg.sample_time_s;
         let g = self.cfg.gains;
         let y = measurement;
+        let mut moved = false;
 
         // Setpoint -> nearest reachable goal and feedforward target (only when it changes).
         if self.st.status.is_none() || setpoint != self.st.setpoint {
+            moved = true;
             let opt = InverseOptions {
                 bounds: Some(self.cfg.limits.envelope()),
                 ..InverseOptions::default()
@@ -621,6 +853,7 @@ impl Controller {
         let goal = status.radii();
         let u_goal = [status.z_m, status.omega];
         if !self.st.initialized {
+            moved = true;
             self.reset(u_goal[0], u_goal[1], y);
         }
 
@@ -645,8 +878,9 @@ impl Controller {
                 }
             }
             let x_new = [x_ff[0] + k * d[0], x_ff[1] + k * d[1]];
-            self.st.u_ff = self.scale.u_of(x_new);
-            self.st.x_ff = self.scale.x_of(self.st.u_ff);
+            let u_ff = self.scale.u_of(x_new);
+            moved |= set2(&mut self.st.u_ff, u_ff);
+            moved |= set2(&mut self.st.x_ff, self.scale.x_of(u_ff));
             // The model is advanced under `u_ff` at the end of the sample (`advance_model`),
             // after the command: nothing in the command reads it, and the command is what
             // the plant waits for.
@@ -654,9 +888,11 @@ impl Controller {
         } else {
             let tau = self.cfg.reference_filter_s;
             let a = ts / (tau + ts);
-            for (i, r) in self.st.r_pre.iter_mut().enumerate() {
-                *r += a * (goal[i] - *r);
-            }
+            let r = self.st.r_pre;
+            moved |= set2(
+                &mut self.st.r_pre,
+                [r[0] + a * (goal[0] - r[0]), r[1] + a * (goal[1] - r[1])],
+            );
             self.st.r_pre
         };
         let e = [r_ref[0] - y[0], r_ref[1] - y[1]];
@@ -670,18 +906,25 @@ impl Controller {
         };
         let a = self.derived.deriv_a;
         let mut deriv = [0.0; 2];
+        let mut d_filt = self.st.d_filt;
         for i in 0..2 {
-            let prev = self.st.d_filt[i];
-            let next = prev + a * (sig[i] - prev);
+            let prev = d_filt[i];
+            let mut next = prev + a * (sig[i] - prev);
+            if (sig[i] - next).abs() <= self.res.derivative_mm {
+                next = sig[i];
+            }
             deriv[i] = (next - prev) / ts;
-            self.st.d_filt[i] = next;
+            d_filt[i] = next;
         }
+        moved |= set2(&mut self.st.d_filt, d_filt);
         let dterm = [g.kd[0] * deriv[0], g.kd[1] * deriv[1]];
 
         // Decoupled correction.
         let x_prev = self.scale.x_of(self.st.u);
-        let jinv = self.decoupler(self.st.u, x_prev);
+        let (jinv, rescheduled) = self.decoupler(self.st.u, x_prev);
+        moved |= rescheduled;
         if let Some(old) = self.st.gains_before.take() {
+            moved = true;
             // Bumpless gain change: the integral takes over the difference.
             let dv = [
                 (old.kp[0] - g.kp[0]) * e[0] + (old.kd[0] - g.kd[0]) * deriv[0],
@@ -709,8 +952,12 @@ impl Controller {
             x_cmd[i] = lim.clamp(0.0, 1.0);
         }
 
-        // Integral with anti-windup.
-        let inc = mat2::mul_v(&jinv, [g.ki[0] * e[0] * ts, g.ki[1] * e[1] * ts]);
+        // Integral with anti-windup (errors within the deadband not integrated, see
+        // INTEGRAL_DEADBAND_MM; written so that a NaN error stays NaN).
+        let db = self.res.integral_mm;
+        let ei = e.map(|x| if x.abs() <= db { 0.0 } else { x });
+        let inc = mat2::mul_v(&jinv, [g.ki[0] * ei[0] * ts, g.ki[1] * ei[1] * ts]);
+        let mut integ = self.st.integ;
         for i in 0..2 {
             let excess = x_des[i] - x_cmd[i];
             let mut di = inc[i];
@@ -720,11 +967,20 @@ impl Controller {
             if g.tracking_time_s > 0.0 {
                 di -= self.derived.track * excess;
             }
-            self.st.integ[i] += di;
+            integ[i] += di;
         }
+        moved |= set2(&mut self.st.integ, integ);
 
-        let u_cmd = self.scale.u_of(x_cmd);
-        self.st.u = u_cmd;
+        // A change below the command's resolution is held back (Fidelity::Lean; see
+        // COMMAND_RESOLUTION): the integral above has taken the sample's error either way.
+        let res = self.res.command;
+        let hold = (x_cmd[0] - x_prev[0]).abs() <= res && (x_cmd[1] - x_prev[1]).abs() <= res;
+        let u_cmd = if hold {
+            self.st.u
+        } else {
+            self.scale.u_of(x_cmd)
+        };
+        moved |= set2(&mut self.st.u, u_cmd);
         self.st.last = StepInfo {
             reference_mm: r_ref,
             goal_mm: goal,
@@ -737,8 +993,8 @@ impl Controller {
             integral: self.st.integ,
         };
         if self.cfg.feedforward {
-            self.advance_model(ts);
+            moved |= self.advance_model(ts);
         }
-        (u_cmd[0], u_cmd[1])
+        ((u_cmd[0], u_cmd[1]), moved)
     }
 }
