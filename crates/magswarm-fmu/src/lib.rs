@@ -33,9 +33,18 @@ use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
 /// Input changes after which the plant evaluates its steady map from tables (an input change
-/// then costs about two thirds; each table cell costs about 5 us when first visited, which
-/// an instance stepped a few times should not pay).
-const MAP_TABLE_AFTER: u32 = 256;
+/// then costs about two thirds; each table cell costs about 30 000 instructions, some
+/// microseconds, when first visited in the process).
+///
+/// Why so many: a cell pays for itself only after its inputs come back to it a few dozen
+/// times. A long loop over a band of inputs (an identification experiment, an oscillating
+/// command) does that soon; a trajectory that wanders does not. The seed's 180 s tracking
+/// scenario at 1 kHz changes the inputs about 7 500 times along its ramps and visits 1 093
+/// cells: from the 256th change on, a first run built them for 35 million instructions to
+/// save 4 million (9-10 ms of its 27 ms; docs/performance.md, "Round perf18b"). From the
+/// 16 384th on, such runs never pay for cells, and an instance that keeps changing its inputs
+/// has them from a few seconds of work on.
+const MAP_TABLE_AFTER: u32 = 16384;
 
 /// `checked` before anything was checked (bits no input has: a NaN's).
 const UNCHECKED: [u64; 2] = [u64::MAX; 2];
