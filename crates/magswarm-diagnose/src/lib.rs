@@ -425,10 +425,9 @@ pub fn diagnose_with_progress(
             // measures with the files and is not credited with that step; with nothing named
             // the augmented model is the baseline itself (augmented.json).
             let pb_ = candidates::predict(&base_aug, &wds);
-            let pa = if attr.accepted.is_empty() {
-                pb_.clone()
-            } else {
-                candidates::predict(&attr.augmented.full.aug, &wds)
+            let pa = match attr.named_model() {
+                None => pb_.clone(),
+                Some(aug) => candidates::predict(aug, &wds),
             };
             Some(Withheld {
                 source: w.source.clone(),

@@ -193,6 +193,16 @@ pub struct Attribution {
     pub anomaly: Option<(f64, f64, f64)>,
 }
 
+impl Attribution {
+    /// The augmented model as written (`augmented.json`) and predicted on a withheld log, or
+    /// None when nothing was named: then the augmented model *is* the baseline (identify's
+    /// model, `baseline.json`), not the attribution's linear refit of it, which can predict
+    /// other operating points differently. The one place that rule lives.
+    pub fn named_model(&self) -> Option<&Augmented> {
+        (!self.accepted.is_empty()).then_some(&self.augmented.full.aug)
+    }
+}
+
 /// Fold of each visit: shuffled, then dealt round-robin.
 pub fn folds(nv: usize, k: usize, seed: u64) -> Vec<usize> {
     let mut idx: Vec<usize> = (0..nv).collect();

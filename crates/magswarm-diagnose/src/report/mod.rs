@@ -71,10 +71,9 @@ fn param_strings(kind: EffectKind, m: &magswarm_model::Model) -> Vec<String> {
 /// accepted effect switched on at its fitted values (runs as is in the FMU and `predict`).
 fn augmented_model(d: &Diagnosis) -> magswarm_model::Model {
     // Nothing named: the augmented model is the baseline itself.
-    let mut m = if d.attr.accepted.is_empty() {
-        d.ident.model.clone()
-    } else {
-        d.attr.augmented.full.aug.model_file()
+    let mut m = match d.attr.named_model() {
+        None => d.ident.model.clone(),
+        Some(aug) => aug.model_file(),
     };
     m.name = format!("{}-augmented", d.ident.model.name);
     m.provenance = format!(
