@@ -125,8 +125,9 @@ fn cube(g: f64, c: f64) -> f64 {
 impl Reference {
     /// At state `r` \[mm\] under inputs `u` (z_m \[m\], omega [rad/s]).
     pub(crate) fn new(model: &Model, u: [f64; 2], r: [f64; 2]) -> Reference {
-        // With the Jacobian: the same coefficients bit for bit (`InputTerms::values`), and
-        // the decoupler's Jacobian at the feedforward for a little more.
+        // With the Jacobian: the same coefficients bit for bit as the plant's lean terms
+        // after an input change, and the decoupler's Jacobian at the feedforward for a
+        // little more.
         let t = InputTerms::new(model, u[0], u[1]);
         Reference {
             u,
@@ -288,7 +289,7 @@ mod tests {
         let m = Model::paper();
         let u = [6.0e-3, 9.0 * std::f64::consts::TAU];
         let r0 = {
-            let t = InputTerms::values(&m, u[0], u[1]);
+            let t = InputTerms::new(&m, u[0], u[1]);
             let r = t.steady.radii();
             [r[0] + 1.0, r[1] - 1.0]
         };
@@ -298,7 +299,7 @@ mod tests {
         exact.set_state(r0);
         exact.step(1.0).unwrap();
         let err = |h: f64| {
-            let t = InputTerms::values(&m, u[0], u[1]);
+            let t = InputTerms::new(&m, u[0], u[1]);
             let c = Coefficients::of(&t, &m);
             // The same right-hand side as the plant's.
             assert_eq!(c.rhs(r0), t.rhs(&m, r0));
@@ -315,7 +316,7 @@ mod tests {
         let ratio = coarse / fine;
         assert!((12.0..20.0).contains(&ratio), "{coarse} / {fine} = {ratio}");
         // The bound of the module's docs at h rho = THETA: a millimetre's transient within 2e-8 mm.
-        let t = InputTerms::values(&m, u[0], u[1]);
+        let t = InputTerms::new(&m, u[0], u[1]);
         let j = t.jac_state(&m, r0);
         let rho = (j[0][0].abs() + j[0][1].abs()).max(j[1][0].abs() + j[1][1].abs());
         let c = Coefficients::of(&t, &m);

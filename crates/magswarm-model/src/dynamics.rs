@@ -189,15 +189,6 @@ impl InputTerms {
         Self::build_into::<false>(out, model, z_m, omega, map, id)
     }
 
-    /// The coefficients of (4) at (z_m \[m\], omega [rad/s]) without their Jacobian parts,
-    /// from the exact map: bit for bit the terms a [`crate::Plant`] without a map table
-    /// steps with after an input change, for about a third of the work of
-    /// [`InputTerms::new`]. For callers that integrate (4) themselves (the controller's
-    /// reference model); [`InputTerms::jac_input`] must not be asked of them.
-    pub fn values(model: &Model, z_m: f64, omega: f64) -> InputTerms {
-        Self::values_with_map(model, z_m, omega, None)
-    }
-
     /// [`InputTerms::values_into`] as a value.
     pub(crate) fn values_with_map(
         model: &Model,
