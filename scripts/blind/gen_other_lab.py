@@ -1051,9 +1051,14 @@ class Scenario:
         F = lab.feats(z)
         th0 = self.th0
 
+        def ex(v):
+            # a trial step of the search may run a log-parameter far out; its residual is then
+            # huge and the step is refused, but exp() must not overflow on the way
+            return math.exp(max(-60.0, min(60.0, v)))
+
         def unpack(p):
-            return dict(C1=math.exp(p[0]), C2=math.exp(p[1]), aK1=math.exp(p[2]), aK2=math.exp(p[3]),
-                        al1=p[4], al2=p[5], N=p[6], q=math.exp(p[7]))
+            return dict(C1=ex(p[0]), C2=ex(p[1]), aK1=ex(p[2]), aK2=ex(p[3]),
+                        al1=p[4], al2=p[5], N=p[6], q=ex(p[7]))
 
         def res(p):
             r1, r2 = lab.radii(F, f, unpack(p))
