@@ -1,11 +1,11 @@
 //! A small subset of the independent diagnose benchmark (crates/magswarm-scenarios; the
 //! whole set runs with `cargo run --release --example diagnose_benchmark`): the generator is
 //! deterministic and writes valid logs, and diagnose is right on null logs, a camera bias the
-//! baseline absorbs, a local anomaly, two effects in one log and strong effects of every kind
-//! with an axis, in shapes that are not the library's (scored as the benchmark scores: the
-//! region located, half of the withheld log's excess removed).
+//! baseline absorbs, a local anomaly, two effects in one log, an uneven loosening and strong
+//! effects of every kind with an axis, in shapes that are not the library's (scored as the
+//! benchmark scores: the region located, half of the withheld log's excess removed).
 
-use magswarm::diagnose::{self, Config};
+use magswarm::diagnose::{self, Config, Diagnosis};
 use magswarm::log::Log;
 use magswarm::model::learned::LearnedSteps;
 use magswarm::model::Model;
@@ -14,14 +14,20 @@ use magswarm_scenarios::{scenarios, Protocol, Scenario, Set, Shape, Truth};
 #[path = "common/bench_score.rs"]
 mod bench_score;
 
-fn verdict(sc: &Scenario) -> (&'static str, Vec<String>) {
+/// The scenario's logs, diagnosed, and its verdict as the benchmark scores it.
+fn diagnosed(sc: &Scenario) -> (&'static str, Diagnosis) {
     let re = sc.realise();
     let log = Log::from_str_named(&re.train, "scenario.csv").expect("a valid log");
     let w = Log::from_str_named(&re.withheld, "withheld.csv").expect("a valid log");
     assert!(log.rows.len() >= 250 && w.rows.len() >= 100);
     let d = diagnose::diagnose(&log, Some(&w), &Model::paper(), &Config::default())
         .expect("diagnose runs");
-    (bench_score::score(sc, &re, &d), d.attr.accepted.clone())
+    (bench_score::score(sc, &re, &d), d)
+}
+
+fn verdict(sc: &Scenario) -> (&'static str, Vec<String>) {
+    let (v, d) = diagnosed(sc);
+    (v, d.attr.accepted)
 }
 
 fn one(shape: Shape, strength: f64, protocol: Protocol, seed: u64) -> Scenario {
@@ -92,12 +98,7 @@ fn strong_foreign_effects_are_named_right() {
 #[test]
 fn a_transient_only_when_the_swarm_grows_is_named_and_written_one_sided() {
     let sc = one(Shape::SlowGrowth { tau: 7.0 }, 4.0, Protocol::FarSteps, 61);
-    let re = sc.realise();
-    let log = Log::from_str_named(&re.train, "scenario.csv").expect("a valid log");
-    let w = Log::from_str_named(&re.withheld, "withheld.csv").expect("a valid log");
-    let d = diagnose::diagnose(&log, Some(&w), &Model::paper(), &Config::default())
-        .expect("diagnose runs");
-    let v = bench_score::score(&sc, &re, &d);
+    let (v, d) = diagnosed(&sc);
     assert_eq!(v, "right", "{}: named {:?}", sc.describe(), d.attr.accepted);
     let m = d.attr.augmented.full.aug.model_file();
     let steps: Vec<_> = m
@@ -113,6 +114,28 @@ fn a_transient_only_when_the_swarm_grows_is_named_and_written_one_sided() {
         "{:?}",
         m.effects.learned
     );
+}
+
+/// A loosening past an onset that grows r2 by a larger share than r1 (and more the faster the
+/// field turns), between far-apart setpoints: both radii grow, so it is a cohesion loss, not
+/// the off-axis swarm whose library correction (both radii as at a larger distance) imitates
+/// it. The learned cohesion term, if one is written, grows both radii the same way.
+#[test]
+fn an_uneven_loosening_is_a_cohesion_loss_not_an_offset() {
+    let sc = one(Shape::OnsetWithF { z0: 13.0 }, 4.0, Protocol::FarSteps, 71);
+    let (v, d) = diagnosed(&sc);
+    assert_eq!(v, "right", "{}: named {:?}", sc.describe(), d.attr.accepted);
+    let m = d.attr.augmented.full.aug.model_file();
+    for t in m
+        .effects
+        .learned
+        .iter()
+        .filter(|t| t.effect == "cohesion_loss")
+    {
+        for (a, b) in t.r1.iter().zip(&t.r2) {
+            assert!(a * b >= 0.0, "r1 {a} and r2 {b} move apart: {t:?}");
+        }
+    }
 }
 
 #[test]

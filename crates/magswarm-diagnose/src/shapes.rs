@@ -9,7 +9,7 @@
 //! | effect | axis | acts as |
 //! | --- | --- | --- |
 //! | `phase_lag` | f, optionally scaled by the field, `f (B(z)/B_mid)^-nu` (an onset that moves with the field) | mm added to the steady radii |
-//! | `cohesion_loss` | z_m | a relative change shared by both radii, or mm added to one radius |
+//! | `cohesion_loss` | z_m | a relative change of both radii the same way (r1's at 1/2, 1 or 2 times r2's), or mm added to one radius |
 //! | `particle_drift` | session time | relative change of the observed radii |
 //! | `centroid_offset` | z_m, or f with an amplitude going as `d^-2` (`(B/B_mid)^(2/3)`) | an aspect change: r1 and r2 in opposite proportion, r1's at 1/2, 1 or 2 times r2's |
 //! | `formation_lag` | time since the last input change | fraction of that change's step still missing (any stable transient: monotone, overshooting, oscillating; after every change, or only after those that make a radius grow, or shrink; optionally only what varies within each visit, for naming) |
@@ -77,8 +77,8 @@ pub enum Mode {
     /// radii (stretched along one principal direction, squeezed along the other). Written
     /// into the model file as a relative change with opposite heights.
     Aspect,
-    /// A relative change of the swarm as a whole [-]: r1 (1 + v) and r2 (1 + v), one value
-    /// for both radii (a loosening swarm grows along both principal directions: the
+    /// A relative change of the swarm as a whole [-]: r1 (1 + ratio v) and r2 (1 + v), one
+    /// value for both radii (a loosening swarm grows along both principal directions: the
     /// signature that tells a cohesion loss from an aspect change).
     Common,
 }
@@ -129,7 +129,9 @@ pub struct Family {
     pub within: bool,
     /// For [`Mode::Aspect`]: r1's relative change per unit of r2's (opposite in sign). Off
     /// the axis nothing makes the two principal directions deform equally; the variants
-    /// take one to be twice or half the other, beside equal.
+    /// take one to be twice or half the other, beside equal. For [`Mode::Common`] the same
+    /// ratio of the same sign: the two principal stiffnesses differ (7), so a loosening
+    /// swarm need not grow by the same share along both.
     pub ratio: f64,
     /// For [`Mode::StepFraction`]: the input changes whose transient the shape describes,
     /// per radius by the sign of the step of the steady map. A swarm need not form the same
@@ -315,7 +317,8 @@ impl RowCtx {
         scale
             * match f.mode {
                 Mode::Add => 1.0,
-                Mode::Relative | Mode::Common => self.pred[i][a],
+                Mode::Relative => self.pred[i][a],
+                Mode::Common => self.pred[i][a] * if a == 0 { f.ratio } else { 1.0 },
                 Mode::StepFraction => self.delta[i][a] * f.steps.of(self.delta[i][a]),
                 Mode::Rate => -self.dmap_df[i][a],
                 Mode::Aspect => self.pred[i][a] * if a == 0 { -f.ratio } else { 1.0 },
@@ -432,6 +435,10 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
         values[0].iter_mut().for_each(|v| *v *= -f.ratio);
         sds[0].iter_mut().for_each(|v| *v *= f.ratio);
     }
+    if f.mode == Mode::Common {
+        values[0].iter_mut().for_each(|v| *v *= f.ratio);
+        sds[0].iter_mut().for_each(|v| *v *= f.ratio);
+    }
     Shape {
         family: f.clone(),
         values,
@@ -488,6 +495,35 @@ mod tests {
         assert_eq!(sh.values[0], vec![-0.0, -0.02, -0.06]);
         assert_eq!(sh.sd[0], vec![0.0, 0.002, 0.004]);
         assert_eq!(sh.sd[1], vec![0.0, 0.001, 0.002]);
+    }
+
+    /// A loosening with r1's relative change half r2's is written per radius with r1's
+    /// heights (and their SDs) at half r2's, of the same sign: both radii grow.
+    #[test]
+    fn a_common_ratio_reaches_the_written_shape() {
+        let f = Family {
+            ratio: 0.5,
+            ..Family::new(Axis::Z, Mode::Common, vec![3.5, 13.5, 23.5], 0.1)
+        };
+        let sh = shape_of(&f, &[0.0, 0.02, 0.06], &[0.001, 0.002, 0.004]);
+        assert_eq!(sh.values[1], vec![0.0, 0.02, 0.06]);
+        assert_eq!(sh.values[0], vec![0.0, 0.01, 0.03]);
+        assert_eq!(sh.sd[0], vec![0.0005, 0.001, 0.002]);
+        // The design sees the same: r1's column is half r2's at every row.
+        let rc = RowCtx {
+            z: vec![8.5],
+            f: vec![5.0],
+            t: vec![1.0],
+            since: vec![1.0],
+            pred: vec![[9.0, 12.0]],
+            delta: vec![[0.0, 0.0]],
+            dmap_df: vec![[0.0, 0.0]],
+            ln_b: vec![0.0],
+            visit: vec![0],
+            w: [1.0, 1.0],
+        };
+        assert_eq!(rc.gain(&f, 0, 0), 4.5);
+        assert_eq!(rc.gain(&f, 0, 1), 12.0);
     }
 
     #[test]

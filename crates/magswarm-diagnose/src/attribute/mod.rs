@@ -14,8 +14,8 @@
 //! Its **null distribution** is that of the same statistic on logs simulated from the current
 //! model with the log's own design and noise structure ([`super::noise`]), each refitted
 //! exactly as the real one, variants and box search included. A candidate *passes* when its
-//! gain lies beyond its null (bootstrap p < alpha); the passing candidate with the largest gain
-//! is named. If that is the local anomaly, nothing more is named: the gap there is reported
+//! gain lies beyond its null (bootstrap p < alpha); the passing candidate furthest beyond its
+//! null's (1 - alpha) quantile is named (near ties: the one with fewer unknowns). If that is the local anomaly, nothing more is named: the gap there is reported
 //! unexplained. Plausibility of the fitted parametric form and the share of each region's
 //! residual removed are reported as reasons, never as vetoes over strong evidence.
 //!
@@ -307,24 +307,13 @@ pub fn attribute(
         };
         progress.inc(1);
         let is_named = |c: Cand| named.iter().any(|(a, _)| Some(*a) == c.kind());
-        let mut order: Vec<usize> = (0..scored.len())
-            .filter(|&i| scored[i].p < st.alpha && scored[i].gain >= MIN_GAIN)
-            .collect();
-        // The candidate furthest beyond its own null: its gain less the null's (1 - alpha)
-        // quantile. A flexible candidate's null is wider, and the local anomaly's includes its
-        // search over boxes: the excess is a calibrated penalty for flexibility.
         let excess = |s: &Scored| s.gain - quantile(&s.null, 1.0 - st.alpha);
-        order.sort_by(|&a, &b| excess(&scored[b]).total_cmp(&excess(&scored[a])));
-        // Candidates within 5 % of the top excess are tied: the one least likely under its own
-        // null (smallest bootstrap p) goes first (a constrained form that fits as well as a
-        // flexible one is the more specific description).
-        if let Some(&top) = order.first() {
-            let tied = order
-                .iter()
-                .take_while(|&&i| excess(&scored[i]) >= 0.95 * excess(&scored[top]))
-                .count();
-            order[..tied].sort_by(|&a, &b| scored[a].p.total_cmp(&scored[b].p));
-        }
+        let order = rank(&scored, st.alpha, |s| {
+            s.best
+                .as_ref()
+                .and_then(|v| columns_of(v, &lin.rc))
+                .map_or(usize::MAX, |d| d.a.ncols())
+        });
         let mut best = order.first().copied();
         // A local anomaly ahead of every effect: an effect that passed still names the gap if
         // its excess comes within 60 % of the anomaly's, if it leaves no box beyond the
@@ -679,5 +668,84 @@ fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
         fr.aug
     } else {
         start
+    }
+}
+
+/// The candidates that pass (bootstrap p < alpha and gain >= [`MIN_GAIN`]), in the order they
+/// would be named: furthest beyond its own null first, i.e. its gain less the null's
+/// (1 - alpha) quantile. A flexible candidate's null is wider, and the local anomaly's
+/// includes its search over boxes: the excess is a calibrated penalty for flexibility.
+///
+/// Candidates within 5 % of the top excess are tied: the one whose best variant has the
+/// fewest `unknowns` goes first (a constrained form that fits as well as a flexible one is the
+/// more specific description: one shape for both radii before one per radius; a box or band
+/// found by a search counts as the most flexible), then the one least likely under its own
+/// null (smallest bootstrap p). Far out in the tail the p-values are extrapolations of a gamma
+/// fit and cannot rank two candidates by themselves.
+fn rank(scored: &[Scored], alpha: f64, unknowns: impl Fn(&Scored) -> usize) -> Vec<usize> {
+    let excess = |s: &Scored| s.gain - quantile(&s.null, 1.0 - alpha);
+    let mut order: Vec<usize> = (0..scored.len())
+        .filter(|&i| scored[i].p < alpha && scored[i].gain >= MIN_GAIN)
+        .collect();
+    order.sort_by(|&a, &b| excess(&scored[b]).total_cmp(&excess(&scored[a])));
+    if let Some(&top) = order.first() {
+        let tied = order
+            .iter()
+            .take_while(|&&i| excess(&scored[i]) >= 0.95 * excess(&scored[top]))
+            .count();
+        order[..tied].sort_by(|&a, &b| {
+            unknowns(&scored[a])
+                .cmp(&unknowns(&scored[b]))
+                .then(scored[a].p.total_cmp(&scored[b].p))
+        });
+    }
+    order
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scored(name: Cand, gain: f64, q: f64, p: f64) -> Scored {
+        Scored {
+            name,
+            gain,
+            null: vec![q; 200],
+            p,
+            best: None,
+            variant: String::new(),
+        }
+    }
+
+    /// Furthest beyond its own null first; within 5 % of the top the form with fewer unknowns
+    /// goes first, whatever the extrapolated p-values say; outside the tie the excess decides.
+    #[test]
+    fn near_ties_go_to_the_more_constrained_form() {
+        use EffectKind::*;
+        let unknowns = |s: &Scored| match s.name {
+            Cand::Effect(PhaseLag) => 18,
+            Cand::Effect(CentroidOffset) => 10,
+            Cand::Effect(CohesionLoss) => 5,
+            _ => usize::MAX,
+        };
+        let mut s = vec![
+            scored(Cand::Effect(PhaseLag), 1294.0, 78.0, 1e-65),
+            scored(Cand::Effect(CentroidOffset), 1258.0, 67.5, 1e-54),
+            scored(Cand::Effect(CohesionLoss), 600.0, 46.0, 1e-30),
+            scored(Cand::Effect(ParticleDrift), 50.0, 80.0, 0.5),
+            scored(Cand::Anomaly, 1290.0, 70.0, 1e-60),
+        ];
+        // Excesses 1216, 1190.5, 554, -, 1220: the anomaly, the lag and the offset are tied;
+        // the drift does not pass.
+        assert_eq!(rank(&s, 0.01, unknowns), vec![1, 0, 4, 2]);
+        // The offset 10 % behind: no longer tied, the excess decides.
+        s[1].gain = 1160.0;
+        assert_eq!(rank(&s, 0.01, unknowns), vec![0, 4, 1, 2]);
+        // Equal unknowns: the smaller p first.
+        s[1].gain = 1258.0;
+        let same = |_: &Scored| 7;
+        assert_eq!(rank(&s, 0.01, same), vec![0, 4, 1, 2]);
+        s[1].p = 1e-70;
+        assert_eq!(rank(&s, 0.01, same), vec![1, 0, 4, 2]);
     }
 }

@@ -96,6 +96,16 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
             s,
         )));
     }
+    // The two principal stiffnesses of (7) differ, so a loosening swarm need not grow by
+    // the same share along both principal directions: besides equal, r1's share half or
+    // twice r2's (at one smoothing: every variant widens the candidate's null). Still both
+    // radii the same way, never the aspect change of an off-axis swarm.
+    for ratio in [0.5, 2.0] {
+        v.push(Variant::Shape(Family {
+            ratio,
+            ..Family::new(Axis::Z, Mode::Common, kz.clone(), 0.1)
+        }));
+    }
     for axes in [[true, false], [false, true]] {
         for s in [0.1, 1.0] {
             v.push(Variant::Shape(Family {
@@ -171,11 +181,13 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
     // the field's expansion about its axis is even in rho. So an aspect change whose size
     // goes with the drive frequency is the same shape over f at every depth, scaled by
     // d^-2, i.e. by (B/B_mid)^(2/3) for the dipole's B ~ d^-3: strongest next to the magnet.
-    // A step-out runs the other way (a strong field keeps the swarm in step longer).
+    // A step-out runs the other way (a strong field keeps the swarm in step longer). Unlike
+    // a lag, the shape is not held at 0 at the lowest frequency: an uneven drive over a turn
+    // acts at any rate, in proportion to it, and the slowest measured field is not a still
+    // one; with its d^-2 amplitude a height there is no trade with the baseline's gains.
     let xf = rc.xs(Axis::F { nu: 0.0 });
     for ratio in [0.5, 1.0, 2.0] {
         cv.push(Variant::Shape(Family {
-            pin_first: true,
             amp: 2.0 / 3.0,
             ratio,
             ..Family::new(
@@ -329,6 +341,12 @@ pub(super) fn describe(v: &Variant) -> String {
             let mut extra = String::new();
             if f.mode == Mode::Aspect && f.ratio != 1.0 {
                 extra += &format!(", r1's relative change {} times r2's", f.ratio);
+            }
+            if f.mode == Mode::Common && f.ratio != 1.0 {
+                extra += &format!(
+                    ", both radii growing together, r1's relative change {} times r2's",
+                    f.ratio
+                );
             }
             if f.amp != 0.0 {
                 extra += &format!(", amplitude (B/B_mid)^{:.3}", f.amp);
