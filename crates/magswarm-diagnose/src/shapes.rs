@@ -144,6 +144,17 @@ pub struct Family {
 pub use magswarm_model::learned::LearnedSteps as Steps;
 
 impl Family {
+    /// r1's relative change per unit of r2's for the modes with one value for both radii
+    /// as a relative change: the opposite of `ratio` for an aspect change, `ratio` itself
+    /// for a common one; 1 otherwise. The design's columns and the written shape both use it.
+    fn r1_share(&self) -> f64 {
+        match self.mode {
+            Mode::Aspect => -self.ratio,
+            Mode::Common => self.ratio,
+            _ => 1.0,
+        }
+    }
+
     /// A family acting on both radii, unscaled by the field, heights free at every knot.
     pub fn new(axis: Axis, mode: Mode, knots: Vec<f64>, smooth: f64) -> Family {
         Family {
@@ -318,10 +329,11 @@ impl RowCtx {
             * match f.mode {
                 Mode::Add => 1.0,
                 Mode::Relative => self.pred[i][a],
-                Mode::Common => self.pred[i][a] * if a == 0 { f.ratio } else { 1.0 },
+                Mode::Aspect | Mode::Common => {
+                    self.pred[i][a] * if a == 0 { f.r1_share() } else { 1.0 }
+                }
                 Mode::StepFraction => self.delta[i][a] * f.steps.of(self.delta[i][a]),
                 Mode::Rate => -self.dmap_df[i][a],
-                Mode::Aspect => self.pred[i][a] * if a == 0 { -f.ratio } else { 1.0 },
             }
     }
 }
@@ -430,14 +442,12 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
     };
     let mut values = [take(coef, 0), take(coef, 1)];
     let mut sds = [take(sd, 0), take(sd, 1)];
-    if f.mode == Mode::Aspect {
-        // Per radius, as a relative change: r1 the opposite of r2, `ratio` times it.
-        values[0].iter_mut().for_each(|v| *v *= -f.ratio);
-        sds[0].iter_mut().for_each(|v| *v *= f.ratio);
-    }
-    if f.mode == Mode::Common {
-        values[0].iter_mut().for_each(|v| *v *= f.ratio);
-        sds[0].iter_mut().for_each(|v| *v *= f.ratio);
+    if matches!(f.mode, Mode::Aspect | Mode::Common) {
+        // Per radius, as a relative change: r1's `ratio` times r2's, opposite in an aspect
+        // change, alike in a common one.
+        let k = f.r1_share();
+        values[0].iter_mut().for_each(|v| *v *= k);
+        sds[0].iter_mut().for_each(|v| *v *= k.abs());
     }
     Shape {
         family: f.clone(),

@@ -61,10 +61,10 @@ fn archive_dir() -> Result<PathBuf, String> {
     let target = dir.join("libgcc_s.a");
     let _ = std::fs::remove_file(&target);
     #[cfg(unix)]
-    let linked = std::os::unix::fs::symlink(&eh, &target);
+    let linked = std::os::unix::fs::symlink(&eh, &target).is_ok();
     #[cfg(not(unix))]
-    let linked = std::fs::copy(&eh, &target).map(|_| ());
-    if linked.is_err() {
+    let linked = false;
+    if !linked {
         std::fs::copy(&eh, &target)
             .map_err(|e| format!("copying {} to {}: {e}", eh.display(), target.display()))?;
     }

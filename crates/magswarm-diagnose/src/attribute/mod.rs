@@ -15,8 +15,8 @@
 //! model with the log's own design and noise structure ([`super::noise`]), each refitted
 //! exactly as the real one, variants and box search included. A candidate *passes* when its
 //! gain lies beyond its null (bootstrap p < alpha); the passing candidate furthest beyond its
-//! null's (1 - alpha) quantile is named (near ties: the one with fewer unknowns). If that is the local anomaly, nothing more is named: the gap there is reported
-//! unexplained. Plausibility of the fitted parametric form and the share of each region's
+//! null's (1 - alpha) quantile is named (near ties: the one with fewer unknowns). If that is
+//! the local anomaly, nothing more is named: the gap there is reported unexplained. Plausibility of the fitted parametric form and the share of each region's
 //! residual removed are reported as reasons, never as vetoes over strong evidence.
 //!
 //! Forward selection: the named effect joins the design, the gap tests ([`super::detect`])
@@ -307,7 +307,7 @@ pub fn attribute(
         };
         progress.inc(1);
         let is_named = |c: Cand| named.iter().any(|(a, _)| Some(*a) == c.kind());
-        let excess = |s: &Scored| s.gain - quantile(&s.null, 1.0 - st.alpha);
+        let excess = |s: &Scored| score::excess(s, st.alpha);
         let order = rank(&scored, st.alpha, |s| {
             s.best
                 .as_ref()
@@ -683,21 +683,20 @@ fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
 /// null (smallest bootstrap p). Far out in the tail the p-values are extrapolations of a gamma
 /// fit and cannot rank two candidates by themselves.
 fn rank(scored: &[Scored], alpha: f64, unknowns: impl Fn(&Scored) -> usize) -> Vec<usize> {
-    let excess = |s: &Scored| s.gain - quantile(&s.null, 1.0 - alpha);
+    let excess = |i: usize| score::excess(&scored[i], alpha);
     let mut order: Vec<usize> = (0..scored.len())
         .filter(|&i| scored[i].p < alpha && scored[i].gain >= MIN_GAIN)
         .collect();
-    order.sort_by(|&a, &b| excess(&scored[b]).total_cmp(&excess(&scored[a])));
+    order.sort_by(|&a, &b| excess(b).total_cmp(&excess(a)));
     if let Some(&top) = order.first() {
         let tied = order
             .iter()
-            .take_while(|&&i| excess(&scored[i]) >= 0.95 * excess(&scored[top]))
+            .take_while(|&&i| excess(i) >= 0.95 * excess(top))
             .count();
-        order[..tied].sort_by(|&a, &b| {
-            unknowns(&scored[a])
-                .cmp(&unknowns(&scored[b]))
-                .then(scored[a].p.total_cmp(&scored[b].p))
-        });
+        // Smaller p first, then (stably) fewer unknowns: each counted once, not per
+        // comparison (counting builds the variant's columns).
+        order[..tied].sort_by(|&a, &b| scored[a].p.total_cmp(&scored[b].p));
+        order[..tied].sort_by_cached_key(|&i| unknowns(&scored[i]));
     }
     order
 }

@@ -21,6 +21,12 @@ pub(super) fn quantile(x: &[f64], q: f64) -> f64 {
     v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
+/// How far a candidate's withheld gain lies beyond its null's (1 - alpha) quantile: the
+/// calibrated penalty for flexibility that orders candidates and the rules beside it.
+pub(super) fn excess(s: &Scored, alpha: f64) -> f64 {
+    s.gain - quantile(&s.null, 1.0 - alpha)
+}
+
 /// One candidate's result in a round.
 pub(super) struct Scored {
     pub(super) name: Cand,
