@@ -490,14 +490,14 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let p_value = min_p(&all);
     let families = family_p
         .iter()
-        .filter(|f| f.1 < alpha)
+        .filter(|f| noise::rejects(f.1, alpha))
         .map(|f| f.0)
         .collect();
     Some(Detection {
         alts: out_alts,
         family_p,
         p_value,
-        significant: p_value < alpha,
+        significant: noise::rejects(p_value, alpha),
         families,
         visit_sd: sd,
     })

@@ -355,6 +355,16 @@ pub fn simulate(ds: &Dataset, nz: &Noise, w: [f64; 2], seed: u64, rep: usize) ->
     y
 }
 
+/// Whether a bootstrap p-value rejects at level `alpha`: p <= alpha. With the empirical
+/// p = (1 + #{null >= obs}) / (1 + B) this is the exact Monte Carlo test (Besag and Clifford;
+/// Davison and Hinkley, sec. 4.2.5): under the null the observed statistic is one of B + 1
+/// exchangeable draws, so P(p <= alpha) = floor(alpha (B + 1)) / (B + 1), which is alpha
+/// itself when alpha (B + 1) is a whole number (0.01 with 499 replicates). A strict
+/// `p < alpha` would test at 4 / 500 = 0.008 there, not at the level the user set.
+pub fn rejects(p: f64, alpha: f64) -> bool {
+    p <= alpha
+}
+
 /// Bootstrap p-value of `obs` against null replicates: the empirical (1 + #{null >= obs}) /
 /// (1 + B); where no replicate reaches `obs`, the tail of a gamma distribution fitted to the
 /// replicates by moments (never above the empirical bound), so that strong evidence is not
@@ -412,5 +422,16 @@ mod tests {
         assert!((boot_p(5.0, &null) - 50.0 / 100.0).abs() < 1e-12);
         let far = boot_p(100.0, &null);
         assert!(far < 1e-6 && far > 0.0);
+    }
+
+    #[test]
+    fn the_monte_carlo_test_has_the_level_the_user_set() {
+        // Under the null the observed statistic is one more exchangeable draw: over every
+        // rank it can take among 499 replicates, the share rejected is alpha = 0.01 exactly.
+        let null: Vec<f64> = (0..499).map(|i| i as f64 + 0.5).collect();
+        let rejected = (0..500)
+            .filter(|&r| rejects(boot_p(r as f64, &null), 0.01))
+            .count();
+        assert_eq!(rejected, 5);
     }
 }

@@ -14,7 +14,7 @@
 //! Its **null distribution** is that of the same statistic on logs simulated from the current
 //! model with the log's own design and noise structure ([`super::noise`]), each refitted
 //! exactly as the real one, variants and box search included. A candidate *passes* when its
-//! gain lies beyond its null (bootstrap p < alpha); the passing candidate furthest beyond its
+//! gain lies beyond its null (bootstrap p <= alpha); the passing candidate furthest beyond its
 //! null's (1 - alpha) quantile is named (near ties: the one with fewer unknowns). If that is
 //! the local anomaly, nothing more is named: the gap there is reported unexplained. Plausibility of the fitted parametric form and the share of each region's
 //! residual removed are reported as reasons, never as vetoes over strong evidence.
@@ -485,7 +485,7 @@ pub fn attribute(
                 },
                 signature: (0.0, None),
                 closes_gap: false,
-                passed: s.p < st.alpha && s.gain >= MIN_GAIN,
+                passed: noise::rejects(s.p, st.alpha) && s.gain >= MIN_GAIN,
                 accepted,
                 ambiguous_with: close,
                 form: Form::Parametric,
@@ -671,7 +671,7 @@ fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
     }
 }
 
-/// The candidates that pass (bootstrap p < alpha and gain >= [`MIN_GAIN`]), in the order they
+/// The candidates that pass (bootstrap p <= alpha and gain >= [`MIN_GAIN`]), in the order they
 /// would be named: furthest beyond its own null first, i.e. its gain less the null's
 /// (1 - alpha) quantile. A flexible candidate's null is wider, and the local anomaly's
 /// includes its search over boxes: the excess is a calibrated penalty for flexibility.
@@ -685,7 +685,7 @@ fn never_worse(lin: &Linear, aug: Augmented) -> Augmented {
 fn rank(scored: &[Scored], alpha: f64, unknowns: impl Fn(&Scored) -> usize) -> Vec<usize> {
     let excess = |i: usize| score::excess(&scored[i], alpha);
     let mut order: Vec<usize> = (0..scored.len())
-        .filter(|&i| scored[i].p < alpha && scored[i].gain >= MIN_GAIN)
+        .filter(|&i| noise::rejects(scored[i].p, alpha) && scored[i].gain >= MIN_GAIN)
         .collect();
     order.sort_by(|&a, &b| excess(b).total_cmp(&excess(a)));
     if let Some(&top) = order.first() {

@@ -24,13 +24,13 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     if !gt.significant {
         let _ = writeln!(
             w,
-            "**No significant gap** (combined p = {:.3e} >= alpha = {}): the baseline's residuals show no structure over the inputs, over session time or after input changes beyond what the repeats' noise explains. No effect is accepted.\n",
+            "**No significant gap** (combined p = {:.3e} > alpha = {}): the baseline's residuals show no structure over the inputs, over session time or after input changes beyond what the repeats' noise explains. No effect is accepted.\n",
             gt.p_value, d.cfg.alpha
         );
     } else {
         let _ = writeln!(
             w,
-            "**Significant gap** (combined p = {:.3e} < alpha = {}; families: {}).\n",
+            "**Significant gap** (combined p = {:.3e} <= alpha = {}; families: {}).\n",
             gt.p_value,
             d.cfg.alpha,
             gt.families.join(", ")
@@ -253,7 +253,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 if d.attr.anomaly_won { ": it beat every effect, so the gap is reported unexplained" } else { "" }
             );
         }
-        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in row-noise units, best variant) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p < alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
+        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in row-noise units, best variant) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p <= alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
     }
     let _ = writeln!(w, "## Unexplained\n");
     if d.unexplained.is_empty() {
