@@ -13,7 +13,12 @@ scored like the blind check (docs/diagnose.md):
 - the seed's grid with rows 0.6-32 s after each change, a particle drift and a formation
   effect together: the drift, significant over session time while no stretch of the session
   stands out on its own, was once declared a gap and then left without a region, a candidate
-  table or a name; now the session is its region and particle_drift is named.
+  table or a name; now the session is its region and particle_drift is named;
+- chains of r2 that break where a Mason number (f / B^2) passes 1, on a 6 x 8 grid, and the
+  same beside two sticking events of particles on a Latin hypercube: an onset that moves with
+  f, which no shape over z_m alone follows, once reported unexplained (and, beside the drift,
+  lost); now `cohesion_loss` is named along the Mason number's axis (both effects in the pair)
+  and at least half of the withheld excess is removed.
 
 Needs target/release/magswarm (`cargo build --release`); skips without it, fails under CI.
 """
@@ -67,3 +72,30 @@ def test_a_significant_drift_without_a_standout_stretch_is_weighed_and_named(oth
     assert res["report"]["gap"]["significant"], f"{scn['name']}: no gap declared"
     assert s["candidates"], f"{scn['name']}: a gap declared and no candidate weighed"
     assert "particle_drift" in s["named"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
+
+
+@pytest.fixture(scope="module")
+def mason(tmp_path_factory):
+    magswarm_exe_or_skip()
+    score = blind_script("score")
+    results = {}
+    for seed, kind in ((408, "cohesion_mason"), (410, "pair_drift_cohesion")):
+        out = tmp_path_factory.mktemp(f"mason{seed}")
+        subprocess.run([sys.executable, str(BLIND / "gen_other_lab.py"), "--seed", str(seed),
+                        "--only", kind, "--out", str(out)], check=True, capture_output=True)
+        (scn,) = json.loads((out / "truth.json").read_text())["scenarios"]
+        results[kind] = diagnose_scored(score, scn, out)
+    return results
+
+
+def test_chains_breaking_past_a_mason_number_are_a_cohesion_loss(mason):
+    scn, res, s = mason["cohesion_mason"]
+    assert s["named"][:1] == ["cohesion_loss"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
+    assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"
+
+
+def test_a_mason_loosening_beside_a_drift_is_named_with_it(mason):
+    scn, res, s = mason["pair_drift_cohesion"]
+    assert set(s["named"][:2]) == {"particle_drift", "cohesion_loss"}, \
+        f"{scn['name']}: named {s['named']}; {s['candidates']}"
+    assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"

@@ -442,6 +442,15 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
     };
     let mut values = [take(coef, 0), take(coef, 1)];
     let mut sds = [take(sd, 0), take(sd, 1)];
+    // A radius the shape does not act on is 0 by construction, with no uncertainty: its
+    // heights carry no column of the design, and the penalty's prior SD there is no
+    // statement about the swarm (it drew +/- 4 mm bands around an r2-only loosening's r1).
+    for a in 0..2 {
+        if !one && !f.axes[a] {
+            values[a].iter_mut().for_each(|v| *v = 0.0);
+            sds[a].iter_mut().for_each(|v| *v = 0.0);
+        }
+    }
     if matches!(f.mode, Mode::Aspect | Mode::Common) {
         // Per radius, as a relative change: r1's `ratio` times r2's, opposite in an aspect
         // change, alike in a common one.
@@ -459,6 +468,24 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_radius_the_shape_does_not_act_on_is_zero_and_certain() {
+        let f = Family {
+            axes: [false, true],
+            ..Family::new(Axis::Z, Mode::Add, vec![1.0, 2.0, 4.0], 1.0)
+        };
+        let k = free_knots(&f);
+        let coef: Vec<f64> = (0..2 * k).map(|i| 0.1 * i as f64).collect();
+        let sd = vec![2.0; 2 * k];
+        let sh = shape_of(&f, &coef, &sd);
+        assert!(
+            sh.values[0].iter().chain(&sh.sd[0]).all(|&v| v == 0.0),
+            "{sh:?}"
+        );
+        assert!(sh.sd[1].iter().all(|&v| v == 2.0), "{sh:?}");
+        assert_eq!(sh.values[1], coef[k..].to_vec());
+    }
 
     #[test]
     fn hats_interpolate_and_extrapolate_flat() {

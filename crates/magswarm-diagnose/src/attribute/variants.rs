@@ -114,6 +114,22 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
             }));
         }
     }
+    // Chains break where the viscous torque of the rotating field outgrows the magnetic
+    // attraction that holds them: the Mason number, Mn ~ f / B^2. A loosening past an onset
+    // in Mn sets in earlier (at a smaller z_m) the faster the field turns, which no shape
+    // over z_m alone follows on a design that spreads f at each depth. A shape over
+    // f (B/B_mid)^-2, held at 0 at the lowest Mn (below the onset nothing loosens; a height
+    // there would trade with the baseline's gains): both radii together, or r2 alone (the
+    // chains along the long axis), at one smoothing each.
+    let xm = rc.xs(Axis::F { nu: 2.0 });
+    let km = shapes::knots_of(&xm, 8);
+    for (mode, axes) in [(Mode::Common, [true, true]), (Mode::Add, [false, true])] {
+        v.push(Variant::Shape(Family {
+            axes,
+            pin_first: true,
+            ..Family::new(Axis::F { nu: 2.0 }, mode, km.clone(), 1.0)
+        }));
+    }
     out.push((Cand::Effect(EffectKind::CohesionLoss), v));
     if let Some(f) = detect::since_family(rc, 0.1, 6) {
         let mut v: Vec<Variant> = smooths
