@@ -33,21 +33,27 @@ import pytest
 from conftest import BLIND, blind_script, diagnose_scored, magswarm_exe_or_skip
 
 
-@pytest.fixture(scope="module")
-def other(tmp_path_factory):
+def _diagnosed(tmp_path_factory, tag, runs, keep=lambda scn: True):
+    """Generate each (seed, kinds) with gen_other_lab.py, diagnose every scenario `keep`
+    accepts with the release binary and score it: {kind: (scenario, run result, score)}."""
     magswarm_exe_or_skip()
     score = blind_script("score")
     results = {}
-    for seed, kinds in ((103, "phase_reversal"), (101, "null,drift_slow_loss"),
-                        (202, "pair_formation_drift")):
-        out = tmp_path_factory.mktemp(f"other{seed}")
+    for seed, kinds in runs:
+        out = tmp_path_factory.mktemp(f"{tag}{seed}")
         subprocess.run([sys.executable, str(BLIND / "gen_other_lab.py"), "--seed", str(seed),
                         "--only", kinds, "--out", str(out)], check=True, capture_output=True)
         for scn in json.loads((out / "truth.json").read_text())["scenarios"]:
-            if scn["protocol"] not in ("steps", "lhs", "grid_spread"):
-                continue
-            results[scn["kind"]] = diagnose_scored(score, scn, out)
+            if keep(scn):
+                results[scn["kind"]] = diagnose_scored(score, scn, out)
     return results
+
+
+@pytest.fixture(scope="module")
+def other(tmp_path_factory):
+    return _diagnosed(tmp_path_factory, "other",
+                      ((103, "phase_reversal"), (101, "null,drift_slow_loss"), (202, "pair_formation_drift")),
+                      keep=lambda scn: scn["protocol"] in ("steps", "lhs", "grid_spread"))
 
 
 def test_steps_off_the_grid_in_two_sessions_name_the_phase_lag(other):
@@ -76,16 +82,7 @@ def test_a_significant_drift_without_a_standout_stretch_is_weighed_and_named(oth
 
 @pytest.fixture(scope="module")
 def mason(tmp_path_factory):
-    magswarm_exe_or_skip()
-    score = blind_script("score")
-    results = {}
-    for seed, kind in ((408, "cohesion_mason"), (410, "pair_drift_cohesion")):
-        out = tmp_path_factory.mktemp(f"mason{seed}")
-        subprocess.run([sys.executable, str(BLIND / "gen_other_lab.py"), "--seed", str(seed),
-                        "--only", kind, "--out", str(out)], check=True, capture_output=True)
-        (scn,) = json.loads((out / "truth.json").read_text())["scenarios"]
-        results[kind] = diagnose_scored(score, scn, out)
-    return results
+    return _diagnosed(tmp_path_factory, "mason", ((408, "cohesion_mason"), (410, "pair_drift_cohesion")))
 
 
 def test_chains_breaking_past_a_mason_number_are_a_cohesion_loss(mason):

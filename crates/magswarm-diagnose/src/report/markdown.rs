@@ -49,7 +49,6 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         }
     }
     let ex = d.excess_removed();
-    let pct = share_removed;
     let _ = writeln!(w, "## How far it shrinks\n");
     let _ = writeln!(w, "| | r1 [mm] | r2 [mm] |\n|---|---|---|");
     let _ = writeln!(
@@ -92,8 +91,8 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     let _ = writeln!(
         w,
         "| share of the withheld excess over the floor removed | {} | {} |\n",
-        pct(ex[0]),
-        pct(ex[1])
+        share_removed(ex[0]),
+        share_removed(ex[1])
     );
     let _ = writeln!(
         w,
@@ -106,7 +105,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         } else {
             " (no point was visited twice: the visit-to-visit part of the noise cannot be estimated and the floor is a lower bound)".into()
         },
-        pct(ex[2])
+        share_removed(ex[2])
     );
     let _ = writeln!(w, "## Is there a gap\n");
     let _ = writeln!(
