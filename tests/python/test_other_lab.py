@@ -18,7 +18,13 @@ scored like the blind check (docs/diagnose.md):
   same beside two sticking events of particles on a Latin hypercube: an onset that moves with
   f, which no shape over z_m alone follows, once reported unexplained (and, beside the drift,
   lost); now `cohesion_loss` is named along the Mason number's axis (both effects in the pair)
-  and at least half of the withheld excess is removed.
+  and at least half of the withheld excess is removed;
+- the seed's grid once from a camera whose successive rows are correlated (AR(1)), without any
+  effect: the gap tests once read the correlated rows as a transient within the visits
+  (p ~ 2e-6); now the correlation is estimated and simulated, and no gap is declared;
+- a formation whose radii cannot change faster than a set rate, on streamed steps: plain
+  within the visits (p ~ 1e-12) but once lost in the wide null of the shapes that move the
+  visits' means and reported unexplained; now `formation_lag` is named.
 
 Needs target/release/magswarm (`cargo build --release`); skips without it, fails under CI.
 """
@@ -96,3 +102,26 @@ def test_a_mason_loosening_beside_a_drift_is_named_with_it(mason):
     assert set(s["named"][:2]) == {"particle_drift", "cohesion_loss"}, \
         f"{scn['name']}: named {s['named']}; {s['candidates']}"
     assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"
+
+
+@pytest.fixture(scope="module")
+def rows(tmp_path_factory):
+    return _diagnosed(tmp_path_factory, "rows", ((408, "null"), (402, "formation_rate_limit")),
+                      keep=lambda scn: scn["kind"] != "null" or scn["protocol"] == "grid1x10")
+
+
+def test_rows_that_follow_each_other_are_not_a_gap(rows):
+    # The seed's grid once, 10 rows a visit from a camera whose rows are AR(1): the gap tests
+    # once saw the correlated rows as a transient within the visits (p ~ 2e-6).
+    scn, res, s = rows["null"]
+    assert not res["report"]["gap"]["significant"], \
+        f"{scn['name']}: gap declared (p = {res['report']['gap']['p_value']:.2e})"
+    assert s["named"] == [], f"{scn['name']}: named {s['named']}"
+    assert max(res["report"]["gap"]["noise"]["row_lag1_correlation"].values()) > 0.2
+
+
+def test_a_rate_limited_formation_on_streamed_steps_is_named(rows):
+    # Plain within the visits (p ~ 1e-12), once lost in the null of the shapes that move the
+    # visits' means: reported unexplained.
+    scn, res, s = rows["formation_rate_limit"]
+    assert s["named"][:1] == ["formation_lag"], f"{scn['name']}: named {s['named']}; {s['candidates']}"

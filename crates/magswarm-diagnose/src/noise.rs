@@ -22,6 +22,11 @@ use rand_distr::{Distribution, StandardNormal};
 pub struct Noise {
     /// SD of one row around its visit's mean.
     pub within: [f64; 2],
+    /// Lag-1 correlation of successive rows of a visit (AR(1) by row): a camera's filter,
+    /// the swarm's own slow wobble. Rows that follow each other are not independent draws,
+    /// and a shape within a visit fitted to such noise finds structure that iid noise would
+    /// not give it.
+    pub ar: [f64; 2],
     /// SD of a visit's mean of settled rows around the truth.
     pub visit: [f64; 2],
     /// SD of the visit-to-visit offset (visit noise less the within part of a mean).
@@ -84,42 +89,133 @@ pub fn cells(ds: &Dataset) -> (Vec<(usize, usize)>, usize, usize) {
 
 /// Estimate the noise from a model's row residuals \[mm\] (`res`; its structure mostly cancels).
 pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
-    // Row noise: successive differences of settled rows within a visit.
+    // Row noise: successive differences of settled rows within a visit (a visit's offset and
+    // a slow transient cancel); their correlation from second differences at lags 1 and 2,
+    // in which a transient's slope cancels too.
     let mut within = [0.0; 2];
+    let mut ar = [0.0; 2];
     let mut settled_n = 0usize;
     for a in 0..2 {
-        let mut d = Vec::new();
+        let (mut d1, mut dd1, mut dd2) = (Vec::new(), Vec::new(), Vec::new());
         for v in 0..ds.visits.len() {
             let rows = ds.settled_rows(v);
             if a == 0 {
                 settled_n += rows.len().max(1);
             }
-            for w in rows.windows(2) {
-                d.push(res[w[1]][a] - res[w[0]][a]);
+            let e: Vec<f64> = rows.iter().map(|&i| res[i][a]).collect();
+            for w in e.windows(2) {
+                d1.push(w[1] - w[0]);
+            }
+            for w in e.windows(3) {
+                dd1.push((v, w[2] - 2.0 * w[1] + w[0]));
+            }
+            for w in e.windows(5) {
+                dd2.push((v, w[4] - 2.0 * w[2] + w[0]));
             }
         }
-        within[a] = if d.len() >= 10 {
-            mad0(&d) / std::f64::consts::SQRT_2
-        } else {
-            0.0
-        };
+        if d1.len() < 10 {
+            continue;
+        }
+        ar[a] = row_correlation(&dd1, &dd2);
+        within[a] = mad0(&d1) / (2.0 * (1.0 - ar[a])).sqrt();
     }
     let rows_per_visit = settled_n as f64 / ds.visits.len().max(1) as f64;
     let rough = Roughness::new(ds);
     let visit = rough.visit_sd(res)?;
     let mut between = [0.0; 2];
     for a in 0..2 {
-        let part = within[a].powi(2) / rows_per_visit.max(1.0);
+        let part = within[a].powi(2) * mean_factor(ar[a], rows_per_visit) / rows_per_visit.max(1.0);
         between[a] = (visit[a].powi(2) - part).max(0.1 * visit[a].powi(2)).sqrt();
     }
     Ok(Noise {
         within,
+        ar,
         visit,
         between,
         rows_per_visit,
         pairs: rough.pairs(),
         repeat_pairs: rough.repeat_pairs(),
     })
+}
+
+/// Second differences at lag 2 needed to estimate the rows' correlation (below it:
+/// independent rows).
+const MIN_LAG2: usize = 20;
+
+/// Largest row correlation believed: beyond it a visit's rows are one slow course, which is
+/// structure for the tests to find, not noise to calibrate them against.
+const MAX_AR: f64 = 0.9;
+
+/// Groups of visits left out in turn to judge the rows' correlation (jackknife).
+const AR_GROUPS: usize = 10;
+
+/// Lag-1 correlation of a visit's successive rows from their second differences at lags 1
+/// and 2, (visit, difference). For AR(1) rows with correlation phi, Var(e_t+1 - 2 e_t +
+/// e_t-1) = 2 SD^2 (1 - phi) (3 - phi) and Var(e_t+2 - 2 e_t + e_t-2) = 2 SD^2 (1 - phi^2)
+/// (3 - phi^2): their ratio (1 + phi) (3 - phi^2) / (3 - phi) rises from 1 at phi = 0 to 2 at
+/// phi = 1, and a transient's slope within the visit cancels in both (first differences
+/// would read a slowly settling swarm as correlated rows). Robust scales (biweight), so that
+/// the odd wild row does not count. Kept only where it stands two jackknife SEs (visits
+/// left out by groups) clear of 0: independent rows read a little above 0 by chance, and a
+/// null that carried that chance correlation would blunt every test within a visit for
+/// nothing.
+fn row_correlation(dd1: &[(usize, f64)], dd2: &[(usize, f64)]) -> f64 {
+    if dd2.len() < MIN_LAG2 {
+        return 0.0;
+    }
+    let phi = |skip: Option<usize>| -> Option<f64> {
+        let keep = |x: &&(usize, f64)| skip.is_none_or(|g| x.0 % AR_GROUPS != g);
+        let a: Vec<f64> = dd1.iter().filter(keep).map(|x| x.1).collect();
+        let b: Vec<f64> = dd2.iter().filter(keep).map(|x| x.1).collect();
+        let s1 = biweight_scale(&a);
+        (s1 > 0.0 && b.len() >= 3).then(|| phi_of_ratio((biweight_scale(&b) / s1).powi(2)))
+    };
+    let Some(all) = phi(None) else { return 0.0 };
+    let loo: Vec<f64> = (0..AR_GROUPS).filter_map(|g| phi(Some(g))).collect();
+    if loo.len() < 3 {
+        return 0.0;
+    }
+    let g = loo.len() as f64;
+    let m = loo.iter().sum::<f64>() / g;
+    let se = ((g - 1.0) / g * loo.iter().map(|x| (x - m).powi(2)).sum::<f64>()).sqrt();
+    if all > 2.0 * se {
+        all
+    } else {
+        0.0
+    }
+}
+
+/// The phi in [0, MAX_AR] whose ratio of second-difference variances (lag 2 over lag 1) is
+/// `r` (bisection: the ratio rises monotonically in phi).
+fn phi_of_ratio(r: f64) -> f64 {
+    let ratio = |p: f64| (1.0 + p) * (3.0 - p * p) / (3.0 - p);
+    if r <= 1.0 {
+        return 0.0;
+    }
+    if r >= ratio(MAX_AR) {
+        return MAX_AR;
+    }
+    let (mut lo, mut hi) = (0.0, MAX_AR);
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if ratio(mid) < r {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// Variance of the mean of `n` AR(1) rows with correlation `phi` relative to `n`
+/// independent ones: 1 + 2 sum_k (1 - k/n) phi^k.
+fn mean_factor(phi: f64, n: f64) -> f64 {
+    let n = n.max(1.0);
+    let m = n.floor() as usize;
+    1.0 + 2.0
+        * (1..m)
+            .map(|k| (1.0 - k as f64 / n) * phi.powi(k as i32))
+            .sum::<f64>()
 }
 
 /// The pairs of visits whose differences measure the visit noise (repeat visits of a point;
@@ -337,7 +433,8 @@ fn mad0(x: &[f64]) -> f64 {
 }
 
 /// A simulated log of pure noise with the data's structure: weighted stacked rows
-/// (`w[a] x (visit offset + row noise)`), replicate `rep` of the stream `seed`.
+/// (`w[a] x (visit offset + row noise)`, the row noise AR(1) along each visit's rows with the
+/// log's correlation), replicate `rep` of the stream `seed`.
 pub fn simulate(ds: &Dataset, nz: &Noise, w: [f64; 2], seed: u64, rep: usize) -> DVector<f64> {
     let mut rng = rand::rngs::StdRng::seed_from_u64(
         seed ^ 0x5EED_B007 ^ (rep as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
@@ -346,11 +443,21 @@ pub fn simulate(ds: &Dataset, nz: &Noise, w: [f64; 2], seed: u64, rep: usize) ->
     let off: Vec<[f64; 2]> = (0..ds.visits.len())
         .map(|_| [g() * nz.between[0], g() * nz.between[1]])
         .collect();
+    let innov = nz.ar.map(|p| (1.0 - p * p).sqrt());
+    // The previous row's noise of each visit (rows of a visit come in time order).
+    let mut prev: Vec<Option<[f64; 2]>> = vec![None; ds.visits.len()];
     let mut y = DVector::zeros(2 * ds.rows.len());
     for (i, r) in ds.rows.iter().enumerate() {
+        let mut e = [0.0; 2];
         for a in 0..2 {
-            y[2 * i + a] = w[a] * (off[r.visit][a] + g() * nz.within[a]);
+            let z = g() * nz.within[a];
+            e[a] = match prev[r.visit] {
+                Some(p) => nz.ar[a] * p[a] + innov[a] * z,
+                None => z,
+            };
+            y[2 * i + a] = w[a] * (off[r.visit][a] + e[a]);
         }
+        prev[r.visit] = Some(e);
     }
     y
 }
@@ -414,6 +521,97 @@ mod tests {
         }
         let sd = biweight_scale(&x);
         assert!((sd / 0.3 - 1.0).abs() < 0.1, "{sd}");
+    }
+
+    /// A 6 x 6 grid visited once, 20 rows a visit, every row settled.
+    fn grid() -> Dataset {
+        use crate::data::{DRow, Visit};
+        let (mut rows, mut visits, mut points) = (Vec::new(), Vec::new(), Vec::new());
+        for iz in 0..6 {
+            for jf in 0..6 {
+                let (v, z, f) = (visits.len(), 3.5 + 4.0 * iz as f64, 1.0 + 1.8 * jf as f64);
+                points.push((z, f));
+                let first = rows.len();
+                for k in 0..20 {
+                    rows.push(DRow {
+                        sess: 0,
+                        visit: v,
+                        point: v,
+                        t: 30.0 * v as f64 + k as f64,
+                        since: 20.0 + k as f64,
+                        dt: 1.0,
+                        z,
+                        f,
+                        r: [0.0; 2],
+                        settled: true,
+                        trans: [0.0; 2],
+                        frac: [f64::NAN; 2],
+                        line: rows.len() + 2,
+                    });
+                }
+                visits.push(Visit {
+                    sess: 0,
+                    point: v,
+                    rows: (first..rows.len()).collect(),
+                    t_mid: 30.0 * v as f64 + 10.0,
+                    prev: v.checked_sub(1),
+                });
+            }
+        }
+        Dataset {
+            rows,
+            visits,
+            points,
+            sessions: vec!["s".into()],
+            rows_total: 720,
+        }
+    }
+
+    /// A camera whose rows follow each other (AR(1), 0.6) is read as such, with the row SD
+    /// it has, and the simulated logs carry the same correlation; independent rows read 0,
+    /// also where the swarm is still settling through the visit (a slope of 2 row SDs over
+    /// its 20 rows, which first differences read as phi near 0.9).
+    #[test]
+    fn correlated_rows_are_estimated_and_simulated_as_correlated() {
+        let ds = grid();
+        let truth = |ar: f64| Noise {
+            within: [0.1, 0.2],
+            ar: [ar, ar],
+            visit: [0.15, 0.25],
+            between: [0.1, 0.2],
+            rows_per_visit: 20.0,
+            pairs: 0,
+            repeat_pairs: 0,
+        };
+        for (ar, slope, lo, hi) in [
+            (0.6, 0.0, 0.5, 0.7),
+            (0.0, 0.0, 0.0, 0.08),
+            (0.0, 0.1, 0.0, 0.08),
+        ] {
+            let mut got = Vec::new();
+            for rep in 0..8 {
+                let y = simulate(&ds, &truth(ar), [1.0, 1.0], 3, rep);
+                let res: Vec<[f64; 2]> = (0..ds.rows.len())
+                    .map(|i| {
+                        let k = (i % 20) as f64;
+                        [y[2 * i] + slope * k, y[2 * i + 1] + 2.0 * slope * k]
+                    })
+                    .collect();
+                got.push(estimate(&ds, &res).expect("enough pairs"));
+            }
+            for a in 0..2 {
+                let phi = got.iter().map(|n| n.ar[a]).sum::<f64>() / 8.0;
+                let sd = got.iter().map(|n| n.within[a]).sum::<f64>() / 8.0;
+                assert!((lo..=hi).contains(&phi), "ar {ar}: read {phi}");
+                let want = truth(ar).within[a];
+                // (A slope adds to every successive difference: the row SD is read on
+                // settled rows, as it always was.)
+                assert!(
+                    slope > 0.0 || (sd / want - 1.0).abs() < 0.12,
+                    "ar {ar}: row SD {sd} for {want}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -13,7 +13,10 @@
 //! in units of the row noise, best over the candidate's variants (smoothness, field exponent).
 //! Its **null distribution** is that of the same statistic on logs simulated from the current
 //! model with the log's own design and noise structure ([`super::noise`]), each refitted
-//! exactly as the real one, variants and box search included. A candidate *passes* when its
+//! exactly as the real one, variants and box search included. Where a candidate's variants
+//! are of two kinds whose nulls differ tenfold in spread (a transient judged within the
+//! visits, and shapes that move the visits' means), each kind is read against its own null
+//! and the candidate's p is their min-p (`score::min_p`). A candidate *passes* when its
 //! gain lies beyond its null (bootstrap p <= alpha); the passing candidate furthest beyond its
 //! null's (1 - alpha) quantile is named (near ties: the one with fewer unknowns). If that is
 //! the local anomaly, nothing more is named: the gap there is reported unexplained. Plausibility of the fitted parametric form and the share of each region's

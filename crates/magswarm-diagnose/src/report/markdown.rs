@@ -110,9 +110,11 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     let _ = writeln!(w, "## Is there a gap\n");
     let _ = writeln!(
         w,
-        "Noise the tests are calibrated against (per axis r1 / r2): a row around its visit's mean {} / {} mm; a visit's mean around the truth {} / {} mm, from {} differences of neighbouring or repeated visits ({} repeats) -- with each point visited once, the roughness of the residual surface.\n",
+        "Noise the tests are calibrated against (per axis r1 / r2): a row around its visit's mean {} / {} mm, successive rows correlated {:.2} / {:.2} (AR(1) along a visit's rows, simulated as such); a visit's mean around the truth {} / {} mm, from {} differences of neighbouring or repeated visits ({} repeats) -- with each point visited once, the roughness of the residual surface.\n",
         g(d.noise.within[0]),
         g(d.noise.within[1]),
+        d.noise.ar[0],
+        d.noise.ar[1],
         g(d.noise.visit[0]),
         g(d.noise.visit[1]),
         d.noise.pairs,

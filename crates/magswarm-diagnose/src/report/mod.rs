@@ -182,6 +182,7 @@ pub fn json(d: &Diagnosis) -> Value {
             },
             "noise": {
                 "within_visit_sd_mm": axes(d.noise.within),
+                "row_lag1_correlation": axes(d.noise.ar),
                 "visit_sd_mm": axes(d.noise.visit),
                 "between_visit_sd_mm": axes(d.noise.between),
                 "neighbour_pairs": d.noise.pairs,
