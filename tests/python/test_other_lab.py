@@ -55,6 +55,13 @@ def _diagnosed(tmp_path_factory, tag, runs, keep=lambda scn: True):
     return results
 
 
+def _named_first_and_half_removed(entry, effect):
+    """The effect named first, and at least half of the withheld excess removed."""
+    scn, res, s = entry
+    assert s["named"][:1] == [effect], f"{scn['name']}: named {s['named']}; {s['candidates']}"
+    assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"
+
+
 @pytest.fixture(scope="module")
 def other(tmp_path_factory):
     return _diagnosed(tmp_path_factory, "other",
@@ -63,9 +70,7 @@ def other(tmp_path_factory):
 
 
 def test_steps_off_the_grid_in_two_sessions_name_the_phase_lag(other):
-    scn, res, s = other["phase_reversal"]
-    assert s["named"][:1] == ["phase_lag"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
-    assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"
+    _named_first_and_half_removed(other["phase_reversal"], "phase_lag")
 
 
 def test_a_latin_hypercube_without_effect_names_nothing(other):
@@ -74,9 +79,7 @@ def test_a_latin_hypercube_without_effect_names_nothing(other):
 
 
 def test_a_slow_loss_on_a_latin_hypercube_is_a_drift(other):
-    scn, res, s = other["drift_slow_loss"]
-    assert s["named"][:1] == ["particle_drift"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
-    assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"
+    _named_first_and_half_removed(other["drift_slow_loss"], "particle_drift")
 
 
 def test_a_significant_drift_without_a_standout_stretch_is_weighed_and_named(other):
@@ -92,9 +95,7 @@ def mason(tmp_path_factory):
 
 
 def test_chains_breaking_past_a_mason_number_are_a_cohesion_loss(mason):
-    scn, res, s = mason["cohesion_mason"]
-    assert s["named"][:1] == ["cohesion_loss"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
-    assert res["shrink"] >= 0.5, f"{scn['name']}: {100 * res['shrink']:.0f} % of the withheld excess removed"
+    _named_first_and_half_removed(mason["cohesion_mason"], "cohesion_loss")
 
 
 def test_a_mason_loosening_beside_a_drift_is_named_with_it(mason):

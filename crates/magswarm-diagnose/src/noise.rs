@@ -569,8 +569,8 @@ mod tests {
 
     /// A camera whose rows follow each other (AR(1), 0.6) is read as such, with the row SD
     /// it has, and the simulated logs carry the same correlation; independent rows read 0,
-    /// also where the swarm is still settling through the visit (a slope of 2 row SDs over
-    /// its 20 rows, which first differences read as phi near 0.9).
+    /// also where the swarm is still settling through the visit (a slope of one row SD per
+    /// row, which cancels in second differences and not in first ones).
     #[test]
     fn correlated_rows_are_estimated_and_simulated_as_correlated() {
         let ds = grid();

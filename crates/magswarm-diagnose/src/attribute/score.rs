@@ -140,24 +140,20 @@ pub(super) fn score_round(
                 // Variants of one kind (shapes that move the visits' means) compete by
                 // their raw gain; kinds (those and the shapes within each visit) by min-p.
                 let kind = |v: &Variant| usize::from(matches!(v, Variant::Shape(f) if f.within));
-                let kinds: Vec<usize> = {
-                    let mut k: Vec<usize> = vs.iter().map(kind).collect();
-                    k.sort_unstable();
-                    k.dedup();
-                    k
-                };
+                let kinds: Vec<usize> = (0..2)
+                    .filter(|&k| vs.iter().any(|v| kind(v) == k))
+                    .collect();
+                // The best variant of a kind (the first among equal gains).
                 let best_of = |gs: &[f64], k: usize| -> (f64, usize) {
-                    vs.iter()
-                        .enumerate()
-                        .filter(|(_, v)| kind(v) == k)
-                        .map(|(vi, _)| (gs[vi], vi))
-                        .fold((f64::NEG_INFINITY, usize::MAX), |a, b| {
-                            if b.0 > a.0 {
-                                b
-                            } else {
-                                a
-                            }
-                        })
+                    let mut of_kind = (0..vs.len()).filter(|&vi| kind(&vs[vi]) == k);
+                    let first = of_kind.next().expect("a kind has a variant");
+                    of_kind.fold((gs[first], first), |a, vi| {
+                        if gs[vi] > a.0 {
+                            (gs[vi], vi)
+                        } else {
+                            a
+                        }
+                    })
                 };
                 let obs_k: Vec<(f64, usize)> =
                     kinds.iter().map(|&k| best_of(&obs[ci], k)).collect();
@@ -167,12 +163,11 @@ pub(super) fn score_round(
                     .collect();
                 let obs_g: Vec<f64> = obs_k.iter().map(|x| x.0).collect();
                 let MinP {
-                    vi: ki,
+                    kind: ki,
                     p,
                     null: nl,
                 } = min_p(&obs_g, &null_k);
                 let (g, vi) = obs_k[ki];
-                let vi = if vi == usize::MAX { 0 } else { vi };
                 if kinds.len() > 1 {
                     log::debug!(
                         "{}: best kind {} (gain {g:.1}, p {p:.2e})",
@@ -201,14 +196,14 @@ pub(super) fn score_round(
     )
 }
 
-/// A candidate judged over its variants by the smallest p-value.
+/// A candidate judged over its kinds of variant by the smallest p-value.
 pub(super) struct MinP {
-    /// The variant with the smallest p (the larger gain among ties).
-    pub(super) vi: usize,
-    /// Its p-value calibrated for the choice among the variants.
+    /// The kind (index into the gains given) with the smallest p (the larger gain among ties).
+    pub(super) kind: usize,
+    /// Its p-value calibrated for the choice among the kinds.
     pub(super) p: f64,
-    /// The null of the best variant's gain with the choice among the variants priced in:
-    /// each replicate's smallest p, read back as a gain on the best variant's own null.
+    /// The null of the best kind's gain with the choice among the kinds priced in: each
+    /// replicate's smallest p, read back as a gain on the best kind's own null.
     pub(super) null: Vec<f64>,
 }
 
@@ -222,38 +217,38 @@ pub(super) fn min_p(obs: &[f64], null: &[Vec<f64>]) -> MinP {
     if let ([g], [nl]) = (obs, null) {
         // One kind: its own p and null, as they are.
         return MinP {
-            vi: 0,
+            kind: 0,
             p: noise::boot_p(*g, nl),
             null: nl.clone(),
         };
     }
-    let p_of = |vi: usize, g: f64| {
+    let p_of = |k: usize, g: f64| {
         if g.is_finite() {
-            noise::boot_p(g, &null[vi])
+            noise::boot_p(g, &null[k])
         } else {
             1.0
         }
     };
-    let mut vi = 0;
+    let mut kind = 0;
     let mut best = f64::INFINITY;
-    for (v, &g) in obs.iter().enumerate() {
-        let p = p_of(v, g);
-        if p < best || (p == best && g > obs[vi]) {
-            (vi, best) = (v, p);
+    for (k, &g) in obs.iter().enumerate() {
+        let p = p_of(k, g);
+        if p < best || (p == best && g > obs[kind]) {
+            (kind, best) = (k, p);
         }
     }
     let b = null.first().map_or(0, Vec::len);
     let rep_min: Vec<f64> = (0..b)
         .map(|r| {
             (0..obs.len())
-                .map(|v| p_of(v, null[v][r]))
+                .map(|k| p_of(k, null[k][r]))
                 .fold(1.0, f64::min)
         })
         .collect();
     // Calibrated p: the share of simulated logs whose smallest p is as small.
     let le = rep_min.iter().filter(|&&m| m <= best).count();
     let emp = (1 + le) as f64 / (1 + b) as f64;
-    // Beyond every replicate, the best variant's own extrapolated tail times the variants
+    // Beyond every replicate, the best kind's own extrapolated tail times the kinds
     // (Bonferroni), never above the empirical bound.
     let p = if le == 0 {
         (best * obs.len() as f64).min(emp)
@@ -262,9 +257,9 @@ pub(super) fn min_p(obs: &[f64], null: &[Vec<f64>]) -> MinP {
     };
     let null = rep_min
         .iter()
-        .map(|&m| quantile(&null[vi], 1.0 - m))
+        .map(|&m| quantile(&null[kind], 1.0 - m))
         .collect();
-    MinP { vi, p, null }
+    MinP { kind, p, null }
 }
 
 #[cfg(test)]
@@ -289,7 +284,7 @@ mod tests {
         assert_eq!(one.p, noise::boot_p(12.0, &null[0]));
         assert_eq!(one.null, null[0]);
         let r = min_p(&[12.0, 5.0], &null);
-        assert_eq!(r.vi, 1);
+        assert_eq!(r.kind, 1);
         assert!(r.p < 0.01, "{}", r.p);
         assert!(quantile(&r.null, 0.99) < 5.0);
         // The wide variant's gain alone (2.2 of its SDs) is not enough once the choice is paid.
