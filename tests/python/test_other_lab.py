@@ -24,7 +24,10 @@ scored like the blind check (docs/diagnose.md):
   (p ~ 2e-6); now the correlation is estimated and simulated, and no gap is declared;
 - a formation whose radii cannot change faster than a set rate, on streamed steps: plain
   within the visits (p ~ 1e-12) but once lost in the wide null of the shapes that move the
-  visits' means and reported unexplained; now `formation_lag` is named.
+  visits' means and reported unexplained; now `formation_lag` is named;
+- an underdamped formation and one slower to grow than to shrink, on streamed steps: the
+  within-visit tests once let the visits' offsets into their nulls (no gap, or unexplained);
+  now `formation_lag` is named on both, and streamed steps without effect show no gap.
 
 Needs target/release/magswarm (`cargo build --release`); skips without it, fails under CI.
 """
@@ -126,3 +129,35 @@ def test_a_rate_limited_formation_on_streamed_steps_is_named(rows):
     # visits' means: reported unexplained.
     scn, res, s = rows["formation_rate_limit"]
     assert s["named"][:1] == ["formation_lag"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
+
+
+@pytest.fixture(scope="module")
+def transients(tmp_path_factory):
+    return _diagnosed(tmp_path_factory, "transients",
+                      ((410, "formation_underdamped_z"), (408, "null,formation_hysteresis")),
+                      keep=lambda scn: scn["protocol"] == "steps")
+
+
+def test_an_underdamped_formation_on_streamed_steps_is_named(transients):
+    # Overshoots of 4-8 row SDs within the visits, beside visit offsets 3-4 times the row
+    # noise: the within-visit test once refitted the baseline's own columns with the shape,
+    # which let the visits' offsets into its null (p ~ 0.15), and formation_lag was weighed
+    # the same way (gain 47, p 0.02): reported unexplained.
+    scn, res, s = transients["formation_underdamped_z"]
+    assert res["report"]["gap"]["significant"], f"{scn['name']}: no gap declared"
+    assert s["named"][:1] == ["formation_lag"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
+
+
+def test_a_formation_slower_to_grow_than_to_shrink_is_named(transients):
+    # Once the baseline's time scale has taken the average approach, what is left is a lag
+    # after the changes that make a radius grow and a lead after those that shrink it, which
+    # a shape over every change cancels: once "no significant gap" (p = 0.36).
+    scn, res, s = transients["formation_hysteresis"]
+    assert s["named"][:1] == ["formation_lag"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
+
+
+def test_streamed_steps_without_effect_name_nothing(transients):
+    scn, res, s = transients["null"]
+    assert not res["report"]["gap"]["significant"], \
+        f"{scn['name']}: gap declared (p = {res['report']['gap']['p_value']:.2e})"
+    assert s["named"] == [], f"{scn['name']}: named {s['named']}"

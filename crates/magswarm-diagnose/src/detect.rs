@@ -130,14 +130,32 @@ pub fn alternatives(ds: &Dataset, rc: &RowCtx) -> Vec<(&'static str, &'static st
 /// rows a second or half a second apart).
 pub const SINCE_FINE_KNOTS: usize = 16;
 
-/// The transient family: `k` knots over the times since a change of the rows that follow one,
-/// and a last knot well past them pinned at 0 (the transient dies out). None without changes.
+/// The transient family: `k` knots spaced evenly in the logarithm of the time since a change
+/// ([`shapes::log_knots_of`]) over the rows that follow one, up to the median visit's last
+/// row, and a last knot well past them pinned at 0 (the transient dies out). None without
+/// changes.
 pub fn since_family(rc: &RowCtx, smooth: f64, k: usize) -> Option<Family> {
+    let after = |i: usize| rc.delta[i][0] != 0.0 || rc.delta[i][1] != 0.0;
+    // Knots only as far as a typical visit lasts (the median over visits after a change of
+    // their last row's time): the few visits that follow a pause or run long would otherwise
+    // hold knots of their own, whose hats fit those visits' slow wander, not a transient.
+    let mut last: Vec<f64> = Vec::new();
+    for i in (0..rc.len()).filter(|&i| after(i)) {
+        let v = rc.visit[i];
+        if last.len() <= v {
+            last.resize(v + 1, f64::NAN);
+        }
+        if last[v].is_nan() || rc.since[i] > last[v] {
+            last[v] = rc.since[i];
+        }
+    }
+    last.retain(|x| x.is_finite());
+    let cap = crate::stats::median(&last);
     let s: Vec<f64> = (0..rc.len())
-        .filter(|&i| rc.delta[i][0] != 0.0 || rc.delta[i][1] != 0.0)
+        .filter(|&i| after(i) && rc.since[i] <= cap * (1.0 + 1e-9))
         .map(|i| rc.since[i])
         .collect();
-    let mut knots = shapes::knots_of(&s, k);
+    let mut knots = shapes::log_knots_of(&s, k);
     let last = *knots.last()?;
     if knots.len() < 2 || last <= 0.0 {
         return None;
@@ -310,6 +328,9 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let w = st.rc.w;
     let one_fold = vec![0usize; st.y.len()];
     let base = Solver::new(st.base, &one_fold, 1)?;
+    // The baseline as the within-visit alternatives see it (`shapes::within_design`).
+    let base_within = shapes::within_design(st.base, st.rc);
+    let base_w = Solver::new(&base_within, &one_fold, 1)?;
     // The visit noise that studentises the statistics: Tukey's biweight scale of the
     // neighbour differences (as robust as their MAD, more than twice as efficient: the
     // estimate's scatter is scatter of every null, that is lost power), except for the
@@ -324,18 +345,28 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     let mut alts: Vec<(&'static str, String, Kind, Option<usize>)> = Vec::new();
     let mut designs: Vec<(&'static str, &'static str, Solver, Scale)> = Vec::new();
     for (fam, name, f) in alternatives(ds, st.rc) {
-        if name == "since_fine" {
-            // The same transient within each visit only (each visit's mean taken out): a
-            // course after a change that the visit's offset cannot make, judged against the
-            // row noise rather than the visit noise (a long dwell resolves a small
-            // oscillation that the visit-to-visit scatter hides).
+        // The same transient within each visit only (each visit's mean taken out): a course
+        // after a change that the visit's offset cannot make, judged against the row noise
+        // rather than the visit noise (a long dwell resolves a small oscillation that the
+        // visit-to-visit scatter hides). The dense shape after every change, and the coarse
+        // ones after the changes that make a radius grow, or shrink: once the baseline's
+        // time scale has taken the average approach, a swarm slower to grow than to shrink
+        // leaves a lag after the one and a lead after the other, which cancel in a shape
+        // that follows every change.
+        let within_label = match name {
+            "since_fine" => Some("since_within"),
+            "since_growing" => Some("since_growing_within"),
+            "since_shrinking" => Some("since_shrinking_within"),
+            _ => None,
+        };
+        if let Some(label) = within_label {
             let g = Family {
                 within: true,
                 ..f.clone()
             };
             let (cols, pen) = shapes::columns(&g, st.rc);
-            if let Some(s) = Solver::new(&st.base.extend(&cols, &pen), &one_fold, 1) {
-                designs.push((fam, "since_within", s, Scale::None));
+            if let Some(s) = Solver::new(&base_within.extend(&cols, &pen), &one_fold, 1) {
+                designs.push((fam, label, s, Scale::None));
             }
         }
         let (cols, pen) = shapes::columns(&f, st.rc);
@@ -405,6 +436,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             let r0 = unweight(&e0, w);
             let sd0 = rough.visit_sd(&r0).ok()?;
             let s0 = linear::sse_axes(&e0);
+            let s0w = linear::sse_axes(&base_w.residual(y));
             let mut sds = Vec::with_capacity(solvers.len() + 1);
             sds.push(sd0);
             let mut drops: Vec<[f64; 2]> = Vec::with_capacity(solvers.len());
@@ -421,6 +453,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
                     (_, Scale::None) | (None, _) => [1.0, 1.0],
                     (Some(r), _) => [(sd[0] / r[idx][0]).powi(2), (sd[1] / r[idx][1]).powi(2)],
                 };
+                let s0 = if *scale == Scale::None { s0w } else { s0 };
                 drops.push([(s0[0] - s1[0]) / rho[0], (s0[1] - s1[1]) / rho[1]]);
             }
             let out = alts

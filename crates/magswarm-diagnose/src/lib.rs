@@ -340,6 +340,7 @@ pub fn diagnose_with_progress(
             max_effects: cfg.max_effects,
             seed: cfg.seed,
             boot: cfg.boot,
+            formation_seen: det0.families.contains(&"formation"),
         },
         pb,
     );

@@ -372,7 +372,7 @@ impl Roughness {
             for g in &self.groups {
                 let start = d.len();
                 d.extend(g.iter().map(|&(u, v)| means[v][a] - means[u][a]));
-                let med = median(&d[start..]);
+                let med = stats::median(&d[start..]);
                 for x in &mut d[start..] {
                     *x -= med;
                 }
@@ -388,26 +388,12 @@ impl Roughness {
     }
 }
 
-fn median(x: &[f64]) -> f64 {
-    if x.is_empty() {
-        return 0.0;
-    }
-    let mut v = x.to_vec();
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Tukey's biweight scale of values centred on 0 (the square root of the biweight
 /// midvariance, tuning constant 9 median absolute values): a normal SD for normal values,
 /// about 85 % efficient where the median absolute value is 37 % efficient, and as robust
 /// (values beyond 9 median absolute values, about 6 SD, carry no weight).
 fn biweight_scale(x: &[f64]) -> f64 {
-    let mad = median(&x.iter().map(|v| v.abs()).collect::<Vec<_>>());
+    let mad = stats::median(&x.iter().map(|v| v.abs()).collect::<Vec<_>>());
     if mad <= 0.0 {
         return 1.4826 * mad;
     }
@@ -429,7 +415,7 @@ fn biweight_scale(x: &[f64]) -> f64 {
 /// 1.4826 x the median absolute value (a normal SD for values centred on 0).
 fn mad0(x: &[f64]) -> f64 {
     let a: Vec<f64> = x.iter().map(|v| v.abs()).collect();
-    1.4826 * median(&a)
+    1.4826 * stats::median(&a)
 }
 
 /// A simulated log of pure noise with the data's structure: weighted stacked rows
@@ -490,7 +476,10 @@ pub fn boot_p(obs: f64, null: &[f64]) -> f64 {
         return emp;
     }
     let (k, theta) = (m * m / v, v / m);
-    stats::gamma_q(k, (obs - lo) / theta).min(emp)
+    // Never exactly 0 (the tail underflows far out): a p-value of 0 reads as certainty.
+    stats::gamma_q(k, (obs - lo) / theta)
+        .min(emp)
+        .max(f64::MIN_POSITIVE)
 }
 
 #[cfg(test)]

@@ -217,17 +217,67 @@ pub fn hat(knots: &[f64], x: f64) -> Vec<(usize, f64)> {
     vec![(j, 1.0 - u), (j + 1, u)]
 }
 
-/// Up to `k` knots spread over the distinct values of `xs` (their quantiles, ends included).
-pub fn knots_of(xs: &[f64], k: usize) -> Vec<f64> {
+/// The finite values of `xs` in increasing order, values closer than `rel` (relative, plus
+/// as much absolute) to the previous one kept once.
+fn distinct(xs: &[f64], rel: f64) -> Vec<f64> {
     let mut v: Vec<f64> = xs.iter().copied().filter(|x| x.is_finite()).collect();
     v.sort_by(|a, b| a.total_cmp(b));
-    v.dedup_by(|a, b| (*a - *b).abs() < 1e-9 * (1.0 + b.abs()));
+    v.dedup_by(|a, b| (*a - *b).abs() < rel * (1.0 + b.abs()));
+    v
+}
+
+/// Up to `k` knots spread over the distinct values of `xs` (their quantiles, ends included).
+pub fn knots_of(xs: &[f64], k: usize) -> Vec<f64> {
+    let v = distinct(xs, 1e-9);
     if v.len() <= k {
         return v;
     }
     let n = v.len();
     let mut out: Vec<f64> = (0..k).map(|i| v[i * (n - 1) / (k - 1)]).collect();
     out.dedup();
+    out
+}
+
+/// `k` knots (a few more where snapping merges targets) over a time since a change, spaced
+/// evenly in its logarithm and each placed on a value the data have: a transient changes
+/// fastest just after the change and slowly later, so knots at quantiles of the times (rows
+/// streamed at a fixed rate, and the long times of visits that follow a pause) leave a
+/// transient of a few seconds to a single hat. Times at or below 0 are shifted by the smallest
+/// positive one before the logarithm.
+pub fn log_knots_of(xs: &[f64], k: usize) -> Vec<f64> {
+    // Times logged to the millisecond differ by rounding from visit to visit: one knot.
+    let v = distinct(xs, 1e-3);
+    if v.len() <= k {
+        return v;
+    }
+    let Some(c) = v.iter().copied().find(|&x| x > 0.0) else {
+        return knots_of(&v, k);
+    };
+    let shift = if v[0] <= 0.0 { 2.0 * c - v[0] } else { 0.0 };
+    let u: Vec<f64> = v.iter().map(|&x| (x + shift).ln()).collect();
+    let (lo, hi) = (u[0], u[u.len() - 1]);
+    if hi <= lo {
+        return knots_of(&v, k);
+    }
+    // Snapping to the data merges targets where rows are sparser than the spacing (the first
+    // seconds of a 1 Hz stream): ask for more targets until k distinct knots come out.
+    let mut out = Vec::new();
+    for m in k..=4 * k {
+        out.clear();
+        let mut j = 0;
+        for i in 0..m {
+            let target = lo + (hi - lo) * i as f64 / (m - 1) as f64;
+            while j + 1 < u.len() && (u[j + 1] - target).abs() <= (u[j] - target).abs() {
+                j += 1;
+            }
+            if out.last() != Some(&v[j]) {
+                out.push(v[j]);
+            }
+        }
+        if out.len() >= k {
+            break;
+        }
+    }
     out
 }
 
@@ -255,6 +305,11 @@ pub struct RowCtx {
     pub dmap_df: Vec<[f64; 2]>,
     /// Visit of each row.
     pub visit: Vec<usize>,
+    /// Nuisance columns (weighted, stacked rows) that only the shapes judged within the
+    /// visits see beside the current design: the rig's own approach after a change at time
+    /// scales a formation effect might have too, which only the row noise resolves (none:
+    /// no column).
+    pub within_nuisance: DMatrix<f64>,
 }
 
 impl RowCtx {
@@ -290,6 +345,7 @@ impl RowCtx {
             pred: pred.to_vec(),
             dmap_df: ds.rows.iter().map(|r| dmap_df[r.point]).collect(),
             visit: ds.rows.iter().map(|r| r.visit).collect(),
+            within_nuisance: DMatrix::zeros(2 * ds.rows.len(), 0),
         }
     }
 
@@ -404,6 +460,28 @@ pub fn within_visits(visit: &[usize], a: &mut DMatrix<f64>) {
         }
     }
 }
+
+/// Design `d` as the shapes judged within the visits see it: with the within-only nuisance
+/// columns, each visit's mean taken out of every column. Against `d`'s own columns, which
+/// vary between visits (a time scale, the steady parameters), a within shape's refit would
+/// move them, and the visits' offsets, several times the row noise, would pass into its
+/// drop.
+pub fn within_design(d: &Design, rc: &RowCtx) -> Design {
+    let m = rc.within_nuisance.ncols();
+    let mut out = if m > 0 {
+        d.extend(
+            &rc.within_nuisance,
+            &(DMatrix::identity(m, m) * WITHIN_NUISANCE_RIDGE),
+        )
+    } else {
+        d.clone()
+    };
+    within_visits(&rc.visit, &mut out.a);
+    out
+}
+
+/// Ridge on the within-only nuisance's unit-norm columns.
+const WITHIN_NUISANCE_RIDGE: f64 = 1e-2;
 
 /// The columns, penalty and monotone blocks of a family, as a design fragment.
 pub fn design(f: &Family, rc: &RowCtx) -> Design {
@@ -557,6 +635,7 @@ mod tests {
             dmap_df: vec![[0.0, 0.0]],
             ln_b: vec![0.0],
             visit: vec![0],
+            within_nuisance: DMatrix::zeros(2, 0),
             w: [1.0, 1.0],
         };
         assert_eq!(rc.gain(&f, 0, 0), 4.5);
@@ -571,5 +650,31 @@ mod tests {
         assert_eq!(k[0], 0.0);
         assert_eq!(*k.last().unwrap(), 49.5);
         assert_eq!(knots_of(&[3.0, 1.0, 3.0], 6), vec![1.0, 3.0]);
+    }
+
+    #[test]
+    fn transient_knots_crowd_the_first_seconds_of_a_stream() {
+        // Rows streamed at 1.5 Hz for 45 s after each change, times rounded to the
+        // millisecond differently from visit to visit.
+        let mut xs = Vec::new();
+        for visit in 0..20 {
+            for k in 1..=67 {
+                xs.push(k as f64 / 1.5 + if visit % 2 == 0 { 1e-4 } else { -3e-4 });
+            }
+        }
+        let lin = knots_of(&xs, 16);
+        let log = log_knots_of(&xs, 16);
+        // Quantile knots leave the first 3 s (a transient of a 0.5 s time scale) to one
+        // knot; the logarithmic ones give it a knot per row there.
+        assert_eq!(lin.iter().filter(|&&x| x < 3.0).count(), 1, "{lin:?}");
+        assert!(log.iter().filter(|&&x| x < 3.0).count() >= 4, "{log:?}");
+        // Every knot is a time the data have, distinct beyond the rounding, and they span
+        // the data.
+        assert!(log.len() >= 16 && log.len() <= 20, "{log:?}");
+        assert!(log.windows(2).all(|w| w[1] - w[0] > 0.5), "{log:?}");
+        assert!(log.iter().all(|k| xs.iter().any(|x| (x - k).abs() < 1e-12)));
+        assert!((log[0] - 1.0 / 1.5).abs() < 1e-3 && (log[log.len() - 1] - 44.667).abs() < 1e-3);
+        // Fewer distinct times than knots: all of them.
+        assert_eq!(log_knots_of(&[2.0, 1.0, 2.0], 6), vec![1.0, 2.0]);
     }
 }

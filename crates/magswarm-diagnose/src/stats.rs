@@ -248,6 +248,21 @@ pub fn mean(x: &[f64]) -> f64 {
     }
 }
 
+/// Median (0 for no values).
+pub fn median(x: &[f64]) -> f64 {
+    if x.is_empty() {
+        return 0.0;
+    }
+    let mut v = x.to_vec();
+    v.sort_by(|a, b| a.total_cmp(b));
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
 /// Median absolute deviation scaled to a normal SD (1.4826 MAD about the median).
 pub fn robust_sd(x: &[f64]) -> f64 {
     if x.is_empty() {

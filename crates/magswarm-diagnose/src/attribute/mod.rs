@@ -106,6 +106,9 @@ pub struct Settings {
     pub seed: u64,
     /// Bootstrap replicates.
     pub boot: usize,
+    /// Whether the gap tests on the baseline found structure after the input changes (the
+    /// `formation` family significant).
+    pub formation_seen: bool,
 }
 
 /// A model fitted on all rows and cross-validated.
@@ -311,12 +314,31 @@ pub fn attribute(
         progress.inc(1);
         let is_named = |c: Cand| named.iter().any(|(a, _)| Some(*a) == c.kind());
         let excess = |s: &Scored| score::excess(s, st.alpha);
-        let order = rank(&scored, st.alpha, |s| {
+        let mut order = rank(&scored, st.alpha, |s| {
             s.best
                 .as_ref()
                 .and_then(|v| columns_of(v, &lin.rc))
                 .map_or(usize::MAX, |d| d.a.ncols())
         });
+        // A formation is named where the gap tests on the current design find structure
+        // after the input changes. Those tests carry a nuisance the candidate's refit does not
+        // (the rig's own first-order approach at the baseline's time constant, judged within
+        // the visits), and a formation shape takes up part of any local or one-sided
+        // structure that follows the changes on far-apart steps (a dip at a few operating
+        // points was named `formation_lag` at p = 0.01 while the formation tests read
+        // nothing).
+        let formation_seen = if round == 1 {
+            st.formation_seen
+        } else {
+            out.rounds
+                .last()
+                .is_some_and(|d| d.families.contains(&"formation"))
+        };
+        let formation = Cand::Effect(EffectKind::FormationLag);
+        let unseen = (!formation_seen)
+            .then(|| order.iter().copied().find(|&i| scored[i].name == formation))
+            .flatten();
+        order.retain(|&i| Some(i) != unseen);
         let mut best = order.first().copied();
         // A local anomaly ahead of every effect: an effect that passed still names the gap if
         // its excess comes within 60 % of the anomaly's, if it leaves no box beyond the
@@ -481,6 +503,8 @@ pub fn attribute(
                 implausible: Vec::new(),
                 notes: if let Some((_, share)) = minor.filter(|m| m.0 == i) {
                     vec![format!("not named: beyond its null, but it removes {:.0} % of the withheld error left above the noise floor (a camera offset is named from {:.0} %)", 100.0 * share.max(0.0), 100.0 * MIN_SHARE)]
+                } else if unseen == Some(i) {
+                    vec!["not named: beyond its null, but the gap tests find no structure after the input changes beside the rig's own approach".to_string()]
                 } else if confounded == Some(i) {
                     vec![format!("not named: this log's order ties session time to the inputs ({:.0} % of the visits' times follow from z_m and f), and a smooth surface over (z_m, f) leaves it no gain beyond its null", 100.0 * tied)]
                 } else {

@@ -150,6 +150,17 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                 ..f.clone()
             }));
         }
+        // The same within each visit: once the baseline's time scale has taken the average
+        // approach, what is left of a one-sided transient is small beside the visits' offsets
+        // and plain beside the row noise.
+        for steps in [Steps::Growing, Steps::Shrinking] {
+            v.push(Variant::Shape(Family {
+                smooth: 1.0,
+                steps,
+                within: true,
+                ..f.clone()
+            }));
+        }
         // Any stable transient, an underdamped one included: knots as dense as the rows'
         // times since a change allow, where they resolve more than the coarse family does.
         if let Some(fine) = detect::since_family(rc, 0.01, detect::SINCE_FINE_KNOTS)
