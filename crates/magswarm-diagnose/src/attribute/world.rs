@@ -191,8 +191,9 @@ impl<'a> Linear<'a> {
         // at the baseline's time constant is plain where the half alone leaves it (on two of
         // the benchmark's 18 tuning null logs it was a gap and named `formation_lag`). In
         // every design it also takes formation effects that move the visits' means (a
-        // formation and a loosening of the held-out set lost their names): the within-visit
-        // shapes only see it.
+        // formation and a loosening of the held-out set lost their names): only the gap
+        // tests' within-visit shapes see it (`shapes::within_design`); the naming does not
+        // (`score::score_round`), and names a formation only where those tests find one.
         rc.within_nuisance = {
             let mut a = DMatrix::zeros(2 * n, 2);
             for i in 0..n {
