@@ -164,7 +164,7 @@ pub(super) fn score_round(
             .map(|(ci, (name, vs))| {
                 // Variants of one kind (shapes that move the visits' means) compete by
                 // their raw gain; kinds (those and the shapes within each visit) by min-p.
-                let kind = |v: &Variant| usize::from(matches!(v, Variant::Shape(f) if f.within));
+                let kind = |v: &Variant| usize::from(within(v));
                 let kinds: Vec<usize> = (0..2)
                     .filter(|&k| vs.iter().any(|v| kind(v) == k))
                     .collect();

@@ -114,16 +114,20 @@ impl<'a> Linear<'a> {
                 None => [0.0; 2],
             }
         };
-        let mut extra = DMatrix::zeros(2 * n, 10);
-        for i in 0..n {
-            let st = step(i);
-            for (k, c) in [0.5].into_iter().enumerate() {
+        // A first-order approach of each change's step at time constant c tau_b, per axis.
+        let approach = |c: f64| -> DMatrix<f64> {
+            let mut a = DMatrix::zeros(2 * n, 2);
+            for i in 0..n {
+                let st = step(i);
                 let e = (-ds.rows[i].since / (c * tau_b)).exp();
                 for ax in 0..2 {
-                    extra[(2 * i + ax, 4 + 2 * k + ax)] = w[ax] * st[ax] * e;
+                    a[(2 * i + ax, ax)] = w[ax] * st[ax] * e;
                 }
             }
-        }
+            a
+        };
+        let mut extra = DMatrix::zeros(2 * n, 6);
+        extra.columns_mut(4, 2).copy_from(&approach(0.5));
         for v in &ds.visits {
             let rows = &v.rows;
             for (k, &i) in rows.iter().enumerate() {
@@ -139,15 +143,7 @@ impl<'a> Linear<'a> {
                 }
             }
         }
-        let mut keep: Vec<usize> = Vec::new();
-        for c in 0..10 {
-            let nrm = extra.column(c).norm();
-            if nrm > 1e-9 && nrm.is_finite() {
-                extra.column_mut(c).scale_mut(1.0 / nrm);
-                keep.push(c);
-            }
-        }
-        let extra = extra.select_columns(&keep);
+        let extra = unit_columns(extra);
         let p = free.len() + extra.ncols();
         let mut full = DMatrix::zeros(2 * n, p);
         full.columns_mut(0, free.len()).copy_from(&a);
@@ -194,27 +190,7 @@ impl<'a> Linear<'a> {
         // formation and a loosening of the held-out set lost their names): only the gap
         // tests' within-visit shapes see it (`shapes::within_design`); the naming does not
         // (`score::score_round`), and names a formation only where those tests find one.
-        rc.within_nuisance = {
-            let mut a = DMatrix::zeros(2 * n, 2);
-            for i in 0..n {
-                let st = step(i);
-                let e = (-ds.rows[i].since / tau_b).exp();
-                for ax in 0..2 {
-                    a[(2 * i + ax, ax)] = w[ax] * st[ax] * e;
-                }
-            }
-            let keep: Vec<usize> = (0..2)
-                .filter(|&c| {
-                    let nrm = a.column(c).norm();
-                    nrm > 1e-9 && nrm.is_finite()
-                })
-                .collect();
-            for &c in &keep {
-                let nrm = a.column(c).norm();
-                a.column_mut(c).scale_mut(1.0 / nrm);
-            }
-            a.select_columns(&keep)
-        };
+        rc.within_nuisance = unit_columns(approach(1.0));
         let fold_of_stacked = (0..2 * n)
             .map(|s| fold_of_visit[ds.rows[s / 2].visit])
             .collect();
@@ -325,4 +301,18 @@ impl Linear<'_> {
         }
         d
     }
+}
+
+/// The columns of `a` scaled to unit norm, those without a finite, non-zero norm (an axis
+/// with no step, a log without transients) dropped.
+fn unit_columns(mut a: DMatrix<f64>) -> DMatrix<f64> {
+    let mut keep: Vec<usize> = Vec::new();
+    for c in 0..a.ncols() {
+        let nrm = a.column(c).norm();
+        if nrm > 1e-9 && nrm.is_finite() {
+            a.column_mut(c).scale_mut(1.0 / nrm);
+            keep.push(c);
+        }
+    }
+    a.select_columns(&keep)
 }
