@@ -294,6 +294,46 @@ fn null_logs_rarely_show_a_gap() {
     );
 }
 
+/// The withheld log is the one test the naming never saw. A phase lag named on one rig's log
+/// and a withheld log from a rig without it: the augmented model predicts that log worse than
+/// the baseline, and the report says so in its verdict, its summary and report.json; a
+/// withheld log from the same rig draws no caution.
+#[test]
+fn an_augmented_model_worse_on_the_withheld_log_is_flagged() {
+    let c = Campaign::seed_grid(&[("phase_lag", 1.0)], 7).unwrap();
+    let log = c.log("train.csv").unwrap();
+    let same = c.with_seed(1007).log("same.csv").unwrap();
+    let other = Campaign::seed_grid(&[], 8)
+        .unwrap()
+        .log("other.csv")
+        .unwrap();
+    let run = |w: &Log| diagnose::diagnose(&log, Some(w), &Model::paper(), &cfg()).unwrap();
+    let (d_same, d_other) = (run(&same), run(&other));
+    for d in [&d_same, &d_other] {
+        assert!(
+            d.attr.accepted.iter().any(|a| a == "phase_lag"),
+            "{:?}",
+            d.attr.accepted
+        );
+    }
+    assert_eq!(d_same.worse_on_withheld_log(), Some(false));
+    assert_eq!(d_other.worse_on_withheld_log(), Some(true));
+    let dir = tempfile::tempdir().unwrap();
+    diagnose::report::write(&d_other, dir.path()).unwrap();
+    let md = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    let verdict = &md[md.find("## Verdict").unwrap()..md.find("## How far").unwrap()];
+    assert!(
+        verdict.contains("predicts worse than the baseline"),
+        "{verdict}"
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+            .unwrap();
+    assert_eq!(j["augmented_worse_on_withheld_log"], true);
+    assert!(diagnose::report::summary(&d_other).contains("caution"));
+    assert!(!diagnose::report::summary(&d_same).contains("caution"));
+}
+
 #[test]
 fn command_writes_the_contract_files() {
     let dir = tempfile::tempdir().unwrap();

@@ -161,3 +161,21 @@ def test_streamed_steps_without_effect_name_nothing(transients):
     assert not res["report"]["gap"]["significant"], \
         f"{scn['name']}: gap declared (p = {res['report']['gap']['p_value']:.2e})"
     assert s["named"] == [], f"{scn['name']}: named {s['named']}"
+
+
+@pytest.fixture(scope="module")
+def pairs(tmp_path_factory):
+    return {seed: _diagnosed(tmp_path_factory, "pairs", ((seed, "pair_formation_drift"),))
+            for seed in (410, 415)}
+
+
+@pytest.mark.parametrize("seed", [410, 415])
+def test_a_formation_beside_a_drift_is_named_with_it(pairs, seed):
+    # Seed 410: a hysteresis between far-apart steps beside a slow loss; seed 415: a rate
+    # limit on a spread grid beside two sticking events. Once the drift is named, the
+    # formation is plain within the visits (p 1e-8 and 1e-48), but its gain was counted in
+    # units of a row's whole noise (visit offset included) rather than of its noise about the
+    # visit's mean, and at 1.9 and 1.4 it fell below the 2 units that name an effect.
+    scn, res, s = pairs[seed]["pair_formation_drift"]
+    assert sorted(s["named"][:2]) == ["formation_lag", "particle_drift"], \
+        f"{scn['name']}: named {s['named']}; {s['candidates']}"

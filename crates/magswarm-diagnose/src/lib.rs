@@ -177,6 +177,18 @@ impl Diagnosis {
         ]
     }
 
+    /// Whether the augmented model predicts the withheld log worse than the baseline (both
+    /// radii's MSE together); None without a withheld log or without a named effect. The
+    /// withheld log is the one test the naming never saw: a reader must hear of this first.
+    pub fn worse_on_withheld_log(&self) -> Option<bool> {
+        let x = self
+            .withheld
+            .as_ref()
+            .filter(|_| !self.attr.accepted.is_empty())?;
+        let ms = |r: [f64; 2]| r[0] * r[0] + r[1] * r[1];
+        Some(ms(x.augmented.rmse) > ms(x.baseline.rmse))
+    }
+
     /// Share of the withheld excess MSE over the floor that the augmented model removes, per
     /// axis and for both axes together (None where the baseline has no excess).
     pub fn excess_removed(&self) -> [Option<f64>; 3] {

@@ -85,6 +85,15 @@ pub(super) fn score_round(
         })
         .collect();
     let rough = noise::Roughness::new(ds);
+    // The within-visit part of a row's variance in the weighted residual's units.
+    let rho_within: [f64; 2] = std::array::from_fn(|a| {
+        let r = (lin.noise.within[a] * lin.rc.w[a]).powi(2);
+        if r.is_finite() && r > 0.0 {
+            r.min(1.0)
+        } else {
+            1.0
+        }
+    });
     // Gains of every candidate (best variant) on one weighted residual, each variant's
     // studentised by the visit noise its own fit leaves (an F-type ratio: a structure that
     // inflates the current residual's visit noise, a drift that makes repeat visits at other
@@ -126,10 +135,12 @@ pub(super) fn score_round(
                 };
                 let sd = rough.visit_sd_stacked(&s.residual(y), lin.rc.w).ok()?;
                 sd_c.push(sd);
-                // A shape within the visits is blind to their noise: its gain is in row-noise
-                // units as it stands, against the current design as it varies within them.
+                // A shape within the visits is blind to their noise: its gain is a
+                // log-likelihood in units of the noise of a row about its visit's mean
+                // (the weighted residual's unit is a row's whole noise, visit offset
+                // included), against the current design as it varies within them.
                 let (rho, from) = match (real, &cur_ws) {
-                    (_, Some(w)) if within(v) => ([1.0, 1.0], w),
+                    (_, Some(w)) if within(v) => (rho_within, w),
                     (Some(r), _) => {
                         let r = r[ci][vi];
                         ([(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)], &cur_s)

@@ -25,13 +25,13 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         let _ = writeln!(
             w,
             "**No significant gap** (combined p = {:.3e} > alpha = {}): the baseline's residuals show no structure over the inputs, over session time or after input changes beyond what the repeats' noise explains. No effect is accepted.\n",
-            gt.p_value, d.cfg.alpha
+            Pv(gt.p_value), d.cfg.alpha
         );
     } else {
         let _ = writeln!(
             w,
             "**Significant gap** (combined p = {:.3e} <= alpha = {}; families: {}).\n",
-            gt.p_value,
+            Pv(gt.p_value),
             d.cfg.alpha,
             gt.families.join(", ")
         );
@@ -46,6 +46,19 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         }
         for (a, b) in &d.attr.ambiguous {
             let _ = writeln!(w, "Close alternative: `{b}` came within 80 % of `{a}`'s excess over its null on withheld visits; `{a}` is named (see the candidate table).\n");
+        }
+        if let Some(x) = d.withheld.as_ref() {
+            if d.worse_on_withheld_log() == Some(true) {
+                let _ = writeln!(
+                    w,
+                    "**Caution:** on the withheld log {} the augmented model predicts worse than the baseline (RMSE r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm). The named effects improve the withheld visits of this log but do not carry over to those operating points: treat the names as provisional, and check the effect's course along its axis in the figures below before using augmented.json.\n",
+                    x.source,
+                    x.baseline.rmse[0],
+                    x.augmented.rmse[0],
+                    x.baseline.rmse[1],
+                    x.augmented.rmse[1]
+                );
+            }
         }
     }
     let ex = d.excess_removed();
@@ -131,7 +144,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             a.family,
             a.name,
             g(a.stat),
-            a.p
+            Pv(a.p)
         );
     }
     let _ = writeln!(
@@ -163,7 +176,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 rg(r.t),
                 rg(r.since),
                 g(r.mean),
-                r.p,
+                Pv(r.p),
                 r.visits.len()
             );
         }
@@ -216,7 +229,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 e.round,
                 g(e.gain),
                 g(e.penalty),
-                e.p,
+                Pv(e.p),
                 e.variant,
                 form,
                 if e.implausible.is_empty() && e.notes.is_empty() {
@@ -247,11 +260,11 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 "\nThe local anomaly (the strongest small box of operating points, which no effect describes): withheld gain {} against a null quantile of {} (p = {:.2e}){}.",
                 g(gain),
                 g(q),
-                p,
+                Pv(p),
                 if d.attr.anomaly_won { ": it beat every effect, so the gap is reported unexplained" } else { "" }
             );
         }
-        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in row-noise units, best variant) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p <= alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
+        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in units of a row's noise, best variant; for a shape judged within the visits, in units of a row's noise about its visit's mean) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p <= alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
     }
     let _ = writeln!(w, "## Unexplained\n");
     if d.unexplained.is_empty() {
@@ -303,9 +316,34 @@ fn share_removed(x: Option<f64>) -> String {
     }
 }
 
+/// A p-value as the tables print it: in scientific notation at the formatter's precision,
+/// and "< 1e-300" where it lies beyond what a double resolves (a bootstrap tail that far out
+/// is a statement of "far beyond", not a number to quote).
+struct Pv(f64);
+
+impl std::fmt::LowerExp for Pv {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0 < 1e-300 {
+            write!(f, "< 1e-300")
+        } else {
+            match f.precision() {
+                Some(k) => write!(f, "{:.*e}", k, self.0),
+                None => write!(f, "{:e}", self.0),
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::share_removed;
+    use super::{share_removed, Pv};
+
+    #[test]
+    fn a_p_value_beyond_what_a_double_resolves_is_not_printed_as_a_number() {
+        assert_eq!(format!("{:.2e}", Pv(0.0123)), "1.23e-2");
+        assert_eq!(format!("{:.2e}", Pv(4.45e-308)), "< 1e-300");
+        assert_eq!(format!("{:.3e}", Pv(0.0)), "< 1e-300");
+    }
 
     #[test]
     fn a_share_past_the_floor_says_the_excess_is_all_removed() {

@@ -227,6 +227,7 @@ pub fn json(d: &Diagnosis) -> Value {
             "folds": d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0),
         },
         "withheld_log": w.map(|w| w.source.clone()),
+        "augmented_worse_on_withheld_log": d.worse_on_withheld_log(),
         "elapsed_s": d.elapsed.as_secs_f64(),
     })
 }
@@ -282,6 +283,12 @@ pub fn summary(d: &Diagnosis) -> String {
             w.baseline.rmse[1],
             w.augmented.rmse[1]
         );
+        if d.worse_on_withheld_log() == Some(true) {
+            let _ = writeln!(
+                s,
+                "  caution: the augmented model predicts the withheld log worse than the baseline; treat the names as provisional"
+            );
+        }
     }
     s
 }
