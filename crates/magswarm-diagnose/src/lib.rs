@@ -46,7 +46,12 @@ pub use error::DiagnoseError;
 use magswarm_identify::{self as identify, data::SettleRule, Progress, Silent};
 use magswarm_log::Log;
 use magswarm_model::Model;
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
+
+/// Level of the one-sided test that flags an augmented model predicting the withheld log
+/// worse than the baseline (a caution for the reader, not a decision: the conventional 5 %).
+pub const WORSE_ALPHA: f64 = 0.05;
 
 /// Library face of the flags.
 #[derive(Debug, Clone, Copy)]
@@ -121,6 +126,38 @@ pub struct Withheld {
     /// Per valid row: its line in the file and the baseline's and the augmented model's
     /// radii there \[mm\].
     pub rows: Vec<(usize, [f64; 2], [f64; 2])>,
+    /// Visits of the withheld log the comparison is paired over.
+    pub visits: usize,
+    /// One-sided p that the augmented model predicts the withheld log worse than the
+    /// baseline: a t test over its visits of the difference of their squared errors (both
+    /// radii, each in units of the training floor). A visit's offset is shared by its rows,
+    /// so a handful of visits can make either model look better by chance: the visits are the
+    /// independent units (1 with fewer than 3 visits: too few to tell).
+    pub worse_p: f64,
+}
+
+/// One-sided p that predictions `pa` fit the rows of `ds` worse than `pb`, paired over visits
+/// (squared errors per axis in units of `floor`).
+fn worse_p(ds: &Dataset, pb: &[[f64; 2]], pa: &[[f64; 2]], floor: [f64; 2]) -> (usize, f64) {
+    let mut by_visit: BTreeMap<usize, f64> = BTreeMap::new();
+    for ((r, b), a) in ds.rows.iter().zip(pb).zip(pa) {
+        let d: f64 = (0..2)
+            .map(|ax| {
+                let s2 = floor[ax].powi(2).max(1e-12);
+                ((r.r[ax] - a[ax]).powi(2) - (r.r[ax] - b[ax]).powi(2)) / s2
+            })
+            .filter(|v| v.is_finite())
+            .sum();
+        *by_visit.entry(r.visit).or_insert(0.0) += d;
+    }
+    let d: Vec<f64> = by_visit.into_values().collect();
+    let (m, t, _) = stats::one_sample_t(&d);
+    let p = if d.len() < 3 || m <= 0.0 {
+        1.0
+    } else {
+        stats::t_sf(t, (d.len() - 1) as f64)
+    };
+    (d.len(), p)
 }
 
 /// Everything a diagnosis produced.
@@ -177,16 +214,16 @@ impl Diagnosis {
         ]
     }
 
-    /// Whether the augmented model predicts the withheld log worse than the baseline (both
-    /// radii's MSE together); None without a withheld log or without a named effect. The
-    /// withheld log is the one test the naming never saw: a reader must hear of this first.
+    /// Whether the augmented model predicts the withheld log worse than the baseline, beyond
+    /// what the withheld log's own visit offsets make of chance (paired over its visits, at
+    /// [`WORSE_ALPHA`]); None without a withheld log or without a named effect. The withheld
+    /// log is the one test the naming never saw: a reader must hear of this first.
     pub fn worse_on_withheld_log(&self) -> Option<bool> {
         let x = self
             .withheld
             .as_ref()
             .filter(|_| !self.attr.accepted.is_empty())?;
-        let ms = |r: [f64; 2]| r[0] * r[0] + r[1] * r[1];
-        Some(ms(x.augmented.rmse) > ms(x.baseline.rmse))
+        Some(x.worse_p <= WORSE_ALPHA)
     }
 
     /// Share of the withheld excess MSE over the floor that the augmented model removes, per
@@ -442,10 +479,13 @@ pub fn diagnose_with_progress(
                 None => pb_.clone(),
                 Some(aug) => candidates::predict(aug, &wds),
             };
+            let (visits, worse_p) = worse_p(&wds, &pb_, &pa, floor);
             Some(Withheld {
                 source: w.source.clone(),
                 baseline: rmse(&wds, &pb_),
                 augmented: rmse(&wds, &pa),
+                visits,
+                worse_p,
                 rows: wds
                     .rows
                     .iter()

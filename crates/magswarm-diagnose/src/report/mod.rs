@@ -228,6 +228,7 @@ pub fn json(d: &Diagnosis) -> Value {
         },
         "withheld_log": w.map(|w| w.source.clone()),
         "augmented_worse_on_withheld_log": d.worse_on_withheld_log(),
+        "augmented_worse_on_withheld_log_p": w.map(|w| w.worse_p),
         "elapsed_s": d.elapsed.as_secs_f64(),
     })
 }
