@@ -136,6 +136,15 @@ pub struct Withheld {
     pub worse_p: f64,
 }
 
+impl Withheld {
+    /// Whether the augmented model's error on the withheld log is higher than the baseline's
+    /// (both radii's MSE together), beyond chance or not ([`Withheld::worse_p`]).
+    pub fn augmented_higher(&self) -> bool {
+        let ms = |r: [f64; 2]| r[0] * r[0] + r[1] * r[1];
+        ms(self.augmented.rmse) > ms(self.baseline.rmse)
+    }
+}
+
 /// One-sided p that predictions `pa` fit the rows of `ds` worse than `pb`, paired over visits
 /// (squared errors per axis in units of `floor`).
 fn worse_p(ds: &Dataset, pb: &[[f64; 2]], pa: &[[f64; 2]], floor: [f64; 2]) -> (usize, f64) {

@@ -48,28 +48,20 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             let _ = writeln!(w, "Close alternative: `{b}` came within 80 % of `{a}`'s excess over its null on withheld visits; `{a}` is named (see the candidate table).\n");
         }
         if let Some(x) = d.withheld.as_ref().filter(|_| !d.attr.accepted.is_empty()) {
-            let ms = |r: [f64; 2]| r[0] * r[0] + r[1] * r[1];
+            let change = super::rmse_change(x.baseline.rmse, x.augmented.rmse);
             if d.worse_on_withheld_log() == Some(true) {
                 let _ = writeln!(
                     w,
-                    "**Caution:** on the withheld log {} the augmented model predicts worse than the baseline (RMSE r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm; paired over its {} visits, one-sided p = {:.2e}). The named effects improve the withheld visits of this log but do not carry over to those operating points: treat the names as provisional, and check the effect's course along its axis in the figures below before using augmented.json.\n",
+                    "**Caution:** on the withheld log {} the augmented model predicts worse than the baseline (RMSE {change}; paired over its {} visits, one-sided p = {:.2e}). The named effects improve the withheld visits of this log but do not carry over to those operating points: treat the names as provisional, and check the effect's course along its axis in the figures below before using augmented.json.\n",
                     x.source,
-                    x.baseline.rmse[0],
-                    x.augmented.rmse[0],
-                    x.baseline.rmse[1],
-                    x.augmented.rmse[1],
                     x.visits,
                     Pv(x.worse_p)
                 );
-            } else if ms(x.augmented.rmse) > ms(x.baseline.rmse) {
+            } else if x.augmented_higher() {
                 let _ = writeln!(
                     w,
-                    "On the withheld log {} the augmented model's error is higher than the baseline's (RMSE r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm), but by less than its {} visits' own offsets make of chance (paired over the visits, one-sided p = {:.2e}): no evidence either way.\n",
+                    "On the withheld log {} the augmented model's error is higher than the baseline's (RMSE {change}), but by less than its {} visits' own offsets make of chance (paired over the visits, one-sided p = {:.2e}): no evidence either way.\n",
                     x.source,
-                    x.baseline.rmse[0],
-                    x.augmented.rmse[0],
-                    x.baseline.rmse[1],
-                    x.augmented.rmse[1],
                     x.visits,
                     Pv(x.worse_p)
                 );

@@ -233,6 +233,15 @@ pub fn json(d: &Diagnosis) -> Value {
     })
 }
 
+/// The RMSE per radius going from `before` to `after` \[mm\], as the report and the
+/// terminal print it: "r1 0.406 -> 0.306 mm, r2 0.683 -> 0.540 mm".
+fn rmse_change(before: [f64; 2], after: [f64; 2]) -> String {
+    format!(
+        "r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm",
+        before[0], after[0], before[1], after[1]
+    )
+}
+
 /// A few lines for the terminal.
 pub fn summary(d: &Diagnosis) -> String {
     let mut s = String::new();
@@ -271,18 +280,17 @@ pub fn summary(d: &Diagnosis) -> String {
     }
     let _ = writeln!(
         s,
-        "  withheld RMSE (CV by visit) r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm; floor {:.3} / {:.3} mm",
-        t[0].1.rmse[0], t[1].1.rmse[0], t[0].1.rmse[1], t[1].1.rmse[1], d.floor[0], d.floor[1]
+        "  withheld RMSE (CV by visit) {}; floor {:.3} / {:.3} mm",
+        rmse_change(t[0].1.rmse, t[1].1.rmse),
+        d.floor[0],
+        d.floor[1]
     );
     if let Some(w) = &d.withheld {
         let _ = writeln!(
             s,
-            "  withheld log {}: r1 {:.3} -> {:.3} mm, r2 {:.3} -> {:.3} mm",
+            "  withheld log {}: {}",
             w.source,
-            w.baseline.rmse[0],
-            w.augmented.rmse[0],
-            w.baseline.rmse[1],
-            w.augmented.rmse[1]
+            rmse_change(w.baseline.rmse, w.augmented.rmse)
         );
         if d.worse_on_withheld_log() == Some(true) {
             let _ = writeln!(
