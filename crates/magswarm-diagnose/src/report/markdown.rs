@@ -1,6 +1,7 @@
 //! `DIR/report.md`: the human report, rendered from the [`Diagnosis`] and the figures' files.
 
 use super::*;
+use crate::noise::{self, Noise};
 
 pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     let mut w = String::new();
@@ -128,18 +129,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
         share_removed(ex[2])
     );
     let _ = writeln!(w, "## Is there a gap\n");
-    let _ = writeln!(
-        w,
-        "Noise the tests are calibrated against (per axis r1 / r2): a row around its visit's mean {} / {} mm, successive rows correlated {:.2} / {:.2} (AR(1) along a visit's rows, simulated as such); a visit's mean around the truth {} / {} mm, from {} differences of neighbouring or repeated visits ({} repeats) -- with each point visited once, the roughness of the residual surface.\n",
-        g(d.noise.within[0]),
-        g(d.noise.within[1]),
-        d.noise.ar[0],
-        d.noise.ar[1],
-        g(d.noise.visit[0]),
-        g(d.noise.visit[1]),
-        d.noise.pairs,
-        d.noise.repeat_pairs
-    );
+    let _ = writeln!(w, "{}\n", noise_line(&d.noise));
     let _ = writeln!(
         w,
         "| family | alternative | statistic | bootstrap p |\n|---|---|---|---|"
@@ -341,15 +331,85 @@ impl std::fmt::LowerExp for Pv {
     }
 }
 
+/// The noise the gap tests are calibrated against, in one paragraph: the row noise and how
+/// far successive rows follow each other (with how well the log fixes that, and a caution
+/// where the log cannot tell independent rows from correlated ones: correlated rows read as
+/// independent make the within-visit tests too ready to find a transient), and the visit
+/// noise with what it was estimated from.
+fn noise_line(n: &Noise) -> String {
+    let unsure: Vec<String> = (0..2)
+        .filter(|&a| n.ar[a] == 0.0 && n.ar_upper[a] >= noise::AR_UNSURE)
+        .map(|a| format!("r{} up to {:.2}", a + 1, n.ar_upper[a]))
+        .collect();
+    format!(
+        "Noise the tests are calibrated against (per axis r1 / r2): a row around its visit's mean {} / {} mm, successive rows correlated {:.2} / {:.2} (AR(1) along a visit's rows, simulated as such; read by likelihood from {} / {} differences of settled rows within the visits, likelihood ratio {:.1} / {:.1} against independent rows, kept from {}; correlations up to {:.2} / {:.2} fit the log as well, at 95 %); a visit's mean around the truth {} / {} mm, from {} differences of neighbouring or repeated visits ({} repeats) -- with each point visited once, the roughness of the residual surface.{}",
+        g(n.within[0]),
+        g(n.within[1]),
+        n.ar[0],
+        n.ar[1],
+        n.ar_diffs[0],
+        n.ar_diffs[1],
+        n.ar_lr[0],
+        n.ar_lr[1],
+        noise::AR_KEEP,
+        n.ar_upper[0],
+        n.ar_upper[1],
+        g(n.visit[0]),
+        g(n.visit[1]),
+        n.pairs,
+        n.repeat_pairs,
+        if unsure.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "\n\n**The rows' correlation is poorly determined:** the rows are simulated independent, but this log's settled rows within the visits cannot tell that from rows that follow each other ({}). Correlated rows read as independent make the tests within the visits too ready to find a transient: before trusting a `formation_lag` named on this log, record more settled rows per visit (a longer dwell, or rows more often).",
+                unsure.join(", ")
+            )
+        }
+    )
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{share_removed, Pv};
+    use super::{noise_line, share_removed, Noise, Pv};
 
     #[test]
     fn a_p_value_beyond_what_a_double_resolves_is_not_printed_as_a_number() {
         assert_eq!(format!("{:.2e}", Pv(0.0123)), "1.23e-2");
         assert_eq!(format!("{:.2e}", Pv(4.45e-308)), "< 1e-300");
         assert_eq!(format!("{:.3e}", Pv(0.0)), "< 1e-300");
+    }
+
+    /// Where a log's differences within its visits cannot tell independent rows from rows
+    /// correlated 0.3 or more, the noise paragraph says so and what to do; where they can,
+    /// it gives the figures without the caution.
+    #[test]
+    fn a_poorly_determined_row_correlation_is_flagged() {
+        let noise = |upper: [f64; 2]| Noise {
+            within: [0.08, 0.13],
+            ar: [0.31, 0.0],
+            ar_diffs: [113, 111],
+            ar_lr: [6.2, 0.4],
+            ar_upper: upper,
+            visit: [0.2, 0.3],
+            between: [0.18, 0.27],
+            rows_per_visit: 3.0,
+            pairs: 85,
+            repeat_pairs: 0,
+        };
+        let short = noise_line(&noise([0.5, 0.44]));
+        assert!(short.contains("correlated 0.31 / 0.00"), "{short}");
+        assert!(short.contains("from 113 / 111 differences"), "{short}");
+        assert!(short.contains("likelihood ratio 6.2 / 0.4"), "{short}");
+        assert!(
+            short.contains("up to 0.50 / 0.44 fit the log as well"),
+            "{short}"
+        );
+        // r1's correlation is kept (and simulated): only r2 is flagged.
+        assert!(short.contains("poorly determined:**"), "{short}");
+        assert!(short.contains("(r2 up to 0.44)"), "{short}");
+        let long = noise_line(&noise([0.4, 0.08]));
+        assert!(!long.contains("poorly determined"), "{long}");
     }
 
     #[test]
