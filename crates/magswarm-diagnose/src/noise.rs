@@ -291,10 +291,15 @@ fn row_correlation(runs: &[Vec<f64>]) -> RowCorrelation {
         (q > 0.0).then(|| -0.5 * (n as f64 * (q / n as f64).ln() + logdet))
     };
     // The variance of a short visit's slope (per row, relative to the row variance): none,
-    // or 1e-3 to 10 on a log grid, the best one for each correlation.
-    let lams: Vec<f64> = std::iter::once(0.0)
-        .chain((0..16).map(|k| 10f64.powf(-3.0 + 4.0 * k as f64 / 15.0)))
-        .collect();
+    // or 1e-3 to 10 on a log grid, the best one for each correlation (none to choose where
+    // every block is long).
+    let lams: Vec<f64> = if blocks.iter().any(|b| !b.0) {
+        std::iter::once(0.0)
+            .chain((0..16).map(|k| 10f64.powf(-3.0 + 4.0 * k as f64 / 15.0)))
+            .collect()
+    } else {
+        vec![0.0]
+    };
     let profile = |phi: f64| -> Option<f64> {
         lams.iter()
             .filter_map(|&lam| loglik(phi, lam))
