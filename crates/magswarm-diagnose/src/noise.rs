@@ -217,13 +217,14 @@ struct RowCorrelation {
 /// Kept only where it beats independent rows by a likelihood-ratio test at 5 %
 /// ([`AR_KEEP`]): independent rows read a little above 0 by chance, and a null that carried
 /// that chance correlation would blunt every test within a visit for nothing. Blocks with a
-/// wild difference ([`AR_WILD`] robust SDs) are left out.
+/// wild difference ([`AR_WILD`] robust SDs), or a residual that is not a number, are left
+/// out.
 fn row_correlation(runs: &[Vec<f64>]) -> RowCorrelation {
     // (second differences?, differences) per block.
     let mut blocks: Vec<(bool, Vec<f64>)> = runs
         .iter()
         .flat_map(|e| e.chunks(AR_BLOCK))
-        .filter(|c| c.len() >= 3)
+        .filter(|c| c.len() >= 3 && c.iter().all(|v| v.is_finite()))
         .map(|c| {
             if c.len() >= AR_DETREND {
                 (
@@ -742,6 +743,40 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Rows a camera quantises (radii to 0.1 mm), rows that never change, a residual that
+    /// is not a number, no rows at all: the correlation is read or is 0, never a failure,
+    /// and a run that is not a number costs only its own block.
+    #[test]
+    fn degenerate_rows_give_a_correlation_and_no_failure() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
+        let ar = |g: &mut dyn FnMut() -> f64, n: usize, phi: f64| -> Vec<f64> {
+            let mut x = g();
+            (0..n)
+                .map(|_| {
+                    x = phi * x + (1.0 - phi * phi).sqrt() * g();
+                    x
+                })
+                .collect()
+        };
+        assert_eq!(row_correlation(&[]).phi, 0.0);
+        assert_eq!(row_correlation(&vec![vec![1.0; 8]; 50]).phi, 0.0);
+        let runs: Vec<Vec<f64>> = (0..100).map(|_| ar(&mut g, 8, 0.5)).collect();
+        let clean = row_correlation(&runs);
+        assert!((0.35..=0.65).contains(&clean.phi), "{clean:?}");
+        let quantised: Vec<Vec<f64>> = runs
+            .iter()
+            .map(|r| r.iter().map(|v| (v * 1.5).round() / 1.5).collect())
+            .collect();
+        let q = row_correlation(&quantised);
+        assert!((0.3..=0.7).contains(&q.phi), "{q:?}");
+        let mut broken = runs.clone();
+        broken[3][2] = f64::NAN;
+        let b = row_correlation(&broken);
+        assert_eq!(b.diffs + 7, clean.diffs, "{b:?}");
+        assert!((b.phi - clean.phi).abs() <= 0.1, "{b:?}");
     }
 
     #[test]
