@@ -27,15 +27,8 @@ pub struct Noise {
     /// and a shape within a visit fitted to such noise finds structure that iid noise would
     /// not give it.
     pub ar: [f64; 2],
-    /// Differences within visits the correlation was read from.
-    pub ar_diffs: [usize; 2],
-    /// Likelihood-ratio statistic of the correlation against independent rows (kept from
-    /// [`AR_KEEP`]).
-    pub ar_lr: [f64; 2],
-    /// Largest correlation the log cannot tell from its best one (one-sided 95 %, the same
-    /// likelihood ratio): where the kept correlation is 0 and this is [`AR_UNSURE`] or more,
-    /// the log cannot tell independent rows from correlated ones.
-    pub ar_upper: [f64; 2],
+    /// How well the log fixes `ar`, per axis.
+    pub ar_evidence: [RowEvidence; 2],
     /// SD of a visit's mean of settled rows around the truth.
     pub visit: [f64; 2],
     /// SD of the visit-to-visit offset (visit noise less the within part of a mean).
@@ -103,9 +96,7 @@ pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
     // within each visit (`row_correlation`).
     let mut within = [0.0; 2];
     let mut ar = [0.0; 2];
-    let mut ar_diffs = [0; 2];
-    let mut ar_lr = [0.0; 2];
-    let mut ar_upper = [0.0; 2];
+    let mut ar_evidence = [RowEvidence::default(); 2];
     let mut settled_n = 0usize;
     for a in 0..2 {
         let mut d1 = Vec::new();
@@ -124,8 +115,7 @@ pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
         if d1.len() < 10 {
             continue;
         }
-        let rc = row_correlation(&runs);
-        (ar[a], ar_diffs[a], ar_lr[a], ar_upper[a]) = (rc.phi, rc.diffs, rc.lr, rc.upper);
+        (ar[a], ar_evidence[a]) = row_correlation(&runs);
         within[a] = mad0(&d1) / (2.0 * (1.0 - ar[a])).sqrt();
     }
     let rows_per_visit = settled_n as f64 / ds.visits.len().max(1) as f64;
@@ -139,9 +129,7 @@ pub fn estimate(ds: &Dataset, res: &[[f64; 2]]) -> Result<Noise, TooFew> {
     Ok(Noise {
         within,
         ar,
-        ar_diffs,
-        ar_lr,
-        ar_upper,
+        ar_evidence,
         visit,
         between,
         rows_per_visit,
@@ -178,17 +166,18 @@ pub const AR_KEEP: f64 = 2.71;
 /// visits, 31 of 40 with 100 such visits, 40 of 40 with 100 ten-row visits.)
 pub const AR_UNSURE: f64 = 0.3;
 
-/// The rows' correlation along one axis and how well the log fixes it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct RowCorrelation {
-    /// Lag-1 correlation kept (0 where the likelihood-ratio test does not keep it).
-    phi: f64,
-    /// Differences it was read from.
-    diffs: usize,
-    /// Likelihood-ratio statistic of the best correlation against independent rows.
-    lr: f64,
-    /// Largest correlation within the same likelihood ratio of the best one.
-    upper: f64,
+/// How well a log fixes the rows' correlation along one axis.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RowEvidence {
+    /// Differences within visits the correlation was read from.
+    pub diffs: usize,
+    /// Likelihood-ratio statistic of the best correlation against independent rows (kept
+    /// from [`AR_KEEP`]).
+    pub lr: f64,
+    /// Largest correlation the log cannot tell from its best one (one-sided 95 %, the same
+    /// likelihood ratio): where the kept correlation is 0 and this is [`AR_UNSURE`] or more,
+    /// the log cannot tell independent rows from correlated ones.
+    pub upper: f64,
 }
 
 /// Lag-1 correlation of a visit's successive rows (AR(1) by row), from each visit's settled
@@ -219,7 +208,8 @@ struct RowCorrelation {
 /// that chance correlation would blunt every test within a visit for nothing. Blocks with a
 /// wild difference ([`AR_WILD`] robust SDs), or a residual that is not a number, are left
 /// out.
-fn row_correlation(runs: &[Vec<f64>]) -> RowCorrelation {
+/// Returns the correlation kept (0 where the test does not keep it) and its evidence.
+fn row_correlation(runs: &[Vec<f64>]) -> (f64, RowEvidence) {
     // (second differences?, differences) per block.
     let mut blocks: Vec<(bool, Vec<f64>)> = runs
         .iter()
@@ -248,12 +238,13 @@ fn row_correlation(runs: &[Vec<f64>]) -> RowCorrelation {
         }
     }
     let n: usize = blocks.iter().map(|b| b.1.len()).sum();
-    let none = RowCorrelation {
-        phi: 0.0,
-        diffs: n,
-        lr: 0.0,
-        upper: 0.0,
-    };
+    let none = (
+        0.0,
+        RowEvidence {
+            diffs: n,
+            ..RowEvidence::default()
+        },
+    );
     if n < MIN_DIFFS {
         return none;
     }
@@ -328,12 +319,14 @@ fn row_correlation(runs: &[Vec<f64>]) -> RowCorrelation {
         best.0,
         blocks.len(),
     );
-    RowCorrelation {
-        phi: if lr >= AR_KEEP { best.0 } else { 0.0 },
-        diffs: n,
-        lr,
-        upper,
-    }
+    (
+        if lr >= AR_KEEP { best.0 } else { 0.0 },
+        RowEvidence {
+            diffs: n,
+            lr,
+            upper,
+        },
+    )
 }
 
 /// Variance of the mean of `n` AR(1) rows with correlation `phi` relative to `n`
@@ -697,9 +690,7 @@ mod tests {
         let truth = |ar: f64, n: usize| Noise {
             within: [0.1, 0.2],
             ar: [ar, ar],
-            ar_diffs: [0; 2],
-            ar_lr: [0.0; 2],
-            ar_upper: [0.0; 2],
+            ar_evidence: Default::default(),
             visit: [0.15, 0.25],
             between: [0.1, 0.2],
             rows_per_visit: n as f64,
@@ -761,22 +752,22 @@ mod tests {
                 })
                 .collect()
         };
-        assert_eq!(row_correlation(&[]).phi, 0.0);
-        assert_eq!(row_correlation(&vec![vec![1.0; 8]; 50]).phi, 0.0);
+        assert_eq!(row_correlation(&[]).0, 0.0);
+        assert_eq!(row_correlation(&vec![vec![1.0; 8]; 50]).0, 0.0);
         let runs: Vec<Vec<f64>> = (0..100).map(|_| ar(&mut g, 8, 0.5)).collect();
         let clean = row_correlation(&runs);
-        assert!((0.35..=0.65).contains(&clean.phi), "{clean:?}");
+        assert!((0.35..=0.65).contains(&clean.0), "{clean:?}");
         let quantised: Vec<Vec<f64>> = runs
             .iter()
             .map(|r| r.iter().map(|v| (v * 1.5).round() / 1.5).collect())
             .collect();
         let q = row_correlation(&quantised);
-        assert!((0.3..=0.7).contains(&q.phi), "{q:?}");
+        assert!((0.3..=0.7).contains(&q.0), "{q:?}");
         let mut broken = runs.clone();
         broken[3][2] = f64::NAN;
         let b = row_correlation(&broken);
-        assert_eq!(b.diffs + 7, clean.diffs, "{b:?}");
-        assert!((b.phi - clean.phi).abs() <= 0.1, "{b:?}");
+        assert_eq!(b.1.diffs + 7, clean.1.diffs, "{b:?}");
+        assert!((b.0 - clean.0).abs() <= 0.1, "{b:?}");
     }
 
     #[test]

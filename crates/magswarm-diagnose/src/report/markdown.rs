@@ -338,8 +338,8 @@ impl std::fmt::LowerExp for Pv {
 /// noise with what it was estimated from.
 fn noise_line(n: &Noise) -> String {
     let unsure: Vec<String> = (0..2)
-        .filter(|&a| n.ar[a] == 0.0 && n.ar_upper[a] >= noise::AR_UNSURE)
-        .map(|a| format!("r{} up to {:.2}", a + 1, n.ar_upper[a]))
+        .filter(|&a| n.ar[a] == 0.0 && n.ar_evidence[a].upper >= noise::AR_UNSURE)
+        .map(|a| format!("r{} up to {:.2}", a + 1, n.ar_evidence[a].upper))
         .collect();
     format!(
         "Noise the tests are calibrated against (per axis r1 / r2): a row around its visit's mean {} / {} mm, successive rows correlated {:.2} / {:.2} (AR(1) along a visit's rows, simulated as such; read by likelihood from {} / {} differences of settled rows within the visits, likelihood ratio {:.1} / {:.1} against independent rows, kept from {}; correlations up to {:.2} / {:.2} fit the log as well, at 95 %); a visit's mean around the truth {} / {} mm, from {} differences of neighbouring or repeated visits ({} repeats) -- with each point visited once, the roughness of the residual surface.{}",
@@ -347,13 +347,13 @@ fn noise_line(n: &Noise) -> String {
         g(n.within[1]),
         n.ar[0],
         n.ar[1],
-        n.ar_diffs[0],
-        n.ar_diffs[1],
-        n.ar_lr[0],
-        n.ar_lr[1],
+        n.ar_evidence[0].diffs,
+        n.ar_evidence[1].diffs,
+        n.ar_evidence[0].lr,
+        n.ar_evidence[1].lr,
         noise::AR_KEEP,
-        n.ar_upper[0],
-        n.ar_upper[1],
+        n.ar_evidence[0].upper,
+        n.ar_evidence[1].upper,
         g(n.visit[0]),
         g(n.visit[1]),
         n.pairs,
@@ -372,6 +372,7 @@ fn noise_line(n: &Noise) -> String {
 #[cfg(test)]
 mod tests {
     use super::{noise_line, share_removed, Noise, Pv};
+    use crate::noise::RowEvidence;
 
     #[test]
     fn a_p_value_beyond_what_a_double_resolves_is_not_printed_as_a_number() {
@@ -388,9 +389,18 @@ mod tests {
         let noise = |upper: [f64; 2]| Noise {
             within: [0.08, 0.13],
             ar: [0.31, 0.0],
-            ar_diffs: [113, 111],
-            ar_lr: [6.2, 0.4],
-            ar_upper: upper,
+            ar_evidence: [
+                RowEvidence {
+                    diffs: 113,
+                    lr: 6.2,
+                    upper: upper[0],
+                },
+                RowEvidence {
+                    diffs: 111,
+                    lr: 0.4,
+                    upper: upper[1],
+                },
+            ],
             visit: [0.2, 0.3],
             between: [0.18, 0.27],
             rows_per_visit: 3.0,

@@ -183,9 +183,9 @@ pub fn json(d: &Diagnosis) -> Value {
             "noise": {
                 "within_visit_sd_mm": axes(d.noise.within),
                 "row_lag1_correlation": axes(d.noise.ar),
-                "row_lag1_correlation_differences": {"r1": d.noise.ar_diffs[0], "r2": d.noise.ar_diffs[1]},
-                "row_lag1_correlation_likelihood_ratio": axes(d.noise.ar_lr),
-                "row_lag1_correlation_upper": axes(d.noise.ar_upper),
+                "row_lag1_correlation_differences": {"r1": d.noise.ar_evidence[0].diffs, "r2": d.noise.ar_evidence[1].diffs},
+                "row_lag1_correlation_likelihood_ratio": axes(d.noise.ar_evidence.map(|e| e.lr)),
+                "row_lag1_correlation_upper": axes(d.noise.ar_evidence.map(|e| e.upper)),
                 "visit_sd_mm": axes(d.noise.visit),
                 "between_visit_sd_mm": axes(d.noise.between),
                 "neighbour_pairs": d.noise.pairs,
