@@ -190,40 +190,7 @@ impl<'a> Linear<'a> {
         // formation and a loosening of the held-out set lost their names): only the gap
         // tests' within-visit shapes see it (`shapes::within_design`); the naming does not
         // (`score::score_round`), and names a formation only where those tests find one.
-        // That rig's time constant need not be one number either: a swarm forms more slowly
-        // where the confinement is weaker, far from the magnet. ODE (4) slows there by its own
-        // law, and one-sidedly (beta = 3: a growing radius lags far more than a shrinking
-        // one); a lab whose approach is first order with a time constant that grows with the
-        // depth leaves, after the changes to large z_m, which mostly make the radii grow, a lag,
-        // and after those to small z_m a lead: the within-visit shapes after the growing, or
-        // the shrinking, changes read it as a formation effect (5 of 6 null logs of the second
-        // generator's streamed steps named `formation_lag`, p 1e-6 ... 1e-16). So the approach
-        // at the baseline's time constant also varies linearly with the depth in its time scale
-        // (to first order in the log of the constant). Not in its size as well: that column
-        // took a hysteresis between far-apart steps (o408_07, `tests/python/test_other_lab.py`).
-        let depth = {
-            let zs: Vec<f64> = ds.rows.iter().map(|r| r.z).collect();
-            let mean = zs.iter().sum::<f64>() / zs.len().max(1) as f64;
-            let half = zs.iter().map(|z| (z - mean).abs()).fold(0.0, f64::max);
-            move |i: usize| {
-                if half > 0.0 {
-                    (zs[i] - mean) / half
-                } else {
-                    0.0
-                }
-            }
-        };
-        let mut within = DMatrix::zeros(2 * n, 4);
-        within.columns_mut(0, 2).copy_from(&approach(1.0));
-        for i in 0..n {
-            let st = step(i);
-            let u = ds.rows[i].since / tau_b;
-            let scale = u * (-u).exp() * depth(i);
-            for ax in 0..2 {
-                within[(2 * i + ax, 2 + ax)] = w[ax] * st[ax] * scale;
-            }
-        }
-        rc.within_nuisance = unit_columns(within);
+        rc.within_nuisance = unit_columns(approach(1.0));
         let fold_of_stacked = (0..2 * n)
             .map(|s| fold_of_visit[ds.rows[s / 2].visit])
             .collect();
