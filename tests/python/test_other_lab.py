@@ -169,7 +169,19 @@ def pairs(tmp_path_factory):
             for seed in (410, 415)}
 
 
-@pytest.mark.parametrize("seed", [410, 415])
+@pytest.mark.parametrize("seed", [
+    # Seed 410, a hysteresis between far-apart steps (a growing radius slower than a shrinking
+    # one) beside a slow loss, is a known loss, kept here so that it shows when it is won
+    # back: on streamed steps the changes that make a radius grow mostly go deeper, so the gap
+    # tests' nuisance for a rig whose own approach slows with depth (docs/diagnose.md, "Change
+    # 12") also takes most of this hysteresis (formation tests p 4e-3 ... 1e-2, no longer
+    # significant as a family). Taking it out of that nuisance gives back the false
+    # `formation_lag` on five of six null logs of the second generator's streamed steps
+    # (tests/python/test_blind_check.py), and a false name is worse than a missed second one.
+    pytest.param(410, marks=pytest.mark.xfail(strict=True, reason="hysteresis confounded with "
+                                              "an approach slowing with depth (Change 12)")),
+    415,
+])
 def test_a_formation_beside_a_drift_is_named_with_it(pairs, seed):
     # Seed 410: a hysteresis between far-apart steps beside a slow loss; seed 415: a rate
     # limit on a spread grid beside two sticking events. Once the drift is named, the

@@ -190,7 +190,51 @@ impl<'a> Linear<'a> {
         // formation and a loosening of the held-out set lost their names): only the gap
         // tests' within-visit shapes see it (`shapes::within_design`); the naming does not
         // (`score::score_round`), and names a formation only where those tests find one.
-        rc.within_nuisance = unit_columns(approach(1.0));
+        // That rig's time constant need not be one number either: a swarm forms more slowly
+        // where the confinement is weaker, far from the magnet. ODE (4) slows there by its own
+        // law, and one-sidedly (beta = 3: a growing radius lags far more than a shrinking
+        // one); a lab whose approach is first order with a time constant that grows with the
+        // depth by another law leaves a lag after some changes and a lead after others, and
+        // the within-visit shapes after the growing, or the shrinking, changes read it as a
+        // formation effect (5 of 6 null logs of the second generator's streamed steps named
+        // `formation_lag`, p 1e-6 ... 1e-16). So the approach's time scale may also vary
+        // linearly with the depth (ln tau = b zc, zc the centred depth: the derivative in b
+        // of e^-u is zc u e^-u, u = since / tau_b). Only on visits whose first row comes
+        // within one time constant of the change: later rows do not see the approach, and
+        // there the column would only fit noise (on the seed's grid, rows from 3 s, it
+        // changed which null logs declared a gap). Not the size varying with the depth as
+        // well, nor the time scale's second order: either took a hysteresis between
+        // far-apart steps (o408_07, `tests/python/test_other_lab.py`).
+        let depth = {
+            let zs: Vec<f64> = ds.rows.iter().map(|r| r.z).collect();
+            let mean = zs.iter().sum::<f64>() / zs.len().max(1) as f64;
+            let half = zs.iter().map(|z| (z - mean).abs()).fold(0.0, f64::max);
+            move |i: usize| {
+                if half > 0.0 {
+                    (zs[i] - mean) / half
+                } else {
+                    0.0
+                }
+            }
+        };
+        let sees_approach: Vec<bool> = ds
+            .visits
+            .iter()
+            .map(|v| v.rows.iter().any(|&i| ds.rows[i].since <= tau_b))
+            .collect();
+        let mut within = DMatrix::zeros(2 * n, 4);
+        within.columns_mut(0, 2).copy_from(&approach(1.0));
+        for i in 0..n {
+            if !sees_approach[ds.rows[i].visit] {
+                continue;
+            }
+            let st = step(i);
+            let u = ds.rows[i].since / tau_b;
+            for ax in 0..2 {
+                within[(2 * i + ax, 2 + ax)] = w[ax] * st[ax] * depth(i) * u * (-u).exp();
+            }
+        }
+        rc.within_nuisance = unit_columns(within);
         let fold_of_stacked = (0..2 * n)
             .map(|s| fold_of_visit[ds.rows[s / 2].visit])
             .collect();
