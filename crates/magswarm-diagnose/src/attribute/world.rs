@@ -205,18 +205,9 @@ impl<'a> Linear<'a> {
         // changed which null logs declared a gap). Not the size varying with the depth as
         // well, nor the time scale's second order: either took a hysteresis between
         // far-apart steps (o408_07, `tests/python/test_other_lab.py`).
-        let depth = {
-            let zs: Vec<f64> = ds.rows.iter().map(|r| r.z).collect();
-            let mean = zs.iter().sum::<f64>() / zs.len().max(1) as f64;
-            let half = zs.iter().map(|z| (z - mean).abs()).fold(0.0, f64::max);
-            move |i: usize| {
-                if half > 0.0 {
-                    (zs[i] - mean) / half
-                } else {
-                    0.0
-                }
-            }
-        };
+        // Centred only: `unit_columns` sets the column's scale (and drops it when every row
+        // is at one depth).
+        let z_mean = ds.rows.iter().map(|r| r.z).sum::<f64>() / n.max(1) as f64;
         let sees_approach: Vec<bool> = ds
             .visits
             .iter()
@@ -231,7 +222,8 @@ impl<'a> Linear<'a> {
             let st = step(i);
             let u = ds.rows[i].since / tau_b;
             for ax in 0..2 {
-                within[(2 * i + ax, 2 + ax)] = w[ax] * st[ax] * depth(i) * u * (-u).exp();
+                within[(2 * i + ax, 2 + ax)] =
+                    w[ax] * st[ax] * (ds.rows[i].z - z_mean) * u * (-u).exp();
             }
         }
         rc.within_nuisance = unit_columns(within);
