@@ -242,17 +242,30 @@ fn a_local_anomaly_at_three_visits_is_unexplained_where_it_lies() {
     }
 }
 
+/// The gap tests hold the level the user set: over 100 null logs of the grid visited once, a
+/// gap at alpha = 0.01 on about 1. An earlier build declared one on 6 (the min-p over the
+/// tests' 50 alternatives read the real log's p-values against an extrapolated tail that no
+/// simulated log's could reach: `noise::replicate_ps`), and the report called it unexplained.
 #[test]
 fn null_logs_on_the_single_visit_grid_name_nothing() {
-    let mut flagged = Vec::new();
-    for seed in 10..20 {
+    let mut gaps = Vec::new();
+    let mut named = Vec::new();
+    for seed in 10..110 {
         let d = run(Extra::None, seed);
-        if !d.attr.accepted.is_empty() || d.tests.significant {
-            flagged.push((seed, d.tests.p_value, d.attr.accepted.clone()));
+        if d.tests.significant {
+            gaps.push((seed, d.tests.p_value));
+        }
+        if !d.attr.accepted.is_empty() {
+            named.push((seed, d.attr.accepted.clone()));
         }
     }
-    // alpha = 0.01 over 10 logs: one false claim is already unlikely (p ~ 0.1).
-    assert!(flagged.len() <= 1, "{flagged:?}");
+    // 1 expected; 3 or fewer with probability 0.98.
+    assert!(
+        gaps.len() <= 3,
+        "gaps declared on {} of 100: {gaps:?}",
+        gaps.len()
+    );
+    assert!(named.len() <= 1, "{named:?}");
 }
 
 #[test]

@@ -92,6 +92,16 @@ def test_a_significant_drift_without_a_standout_stretch_is_weighed_and_named(oth
     assert "particle_drift" in s["named"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
 
 
+# Change 13 (docs/diagnose.md): the gap tests' min-p now reads every simulated log's p-values as
+# the real log's are, and holds the level set (on 100 null grids a gap on 1, before on 6). These
+# logs' gaps (o402_08, o408_07; for o410_18 the gap left once its drift is named) rested on a
+# statistic just beyond every simulation of one of some 50 alternatives (combined p 2e-3
+# before, 0.014 and 0.028 now): at alpha = 0.01 that is no longer a gap, and the effect is not
+# reached. Kept as expected failures, so that they show when power is won back
+# honestly (the named candidates' own evidence is far stronger than the gap tests' shapes').
+LEVEL_HELD = pytest.mark.xfail(strict=True, reason="gap p 0.014-0.028 once the min-p holds its level (Change 13)")
+
+
 @pytest.fixture(scope="module")
 def mason(tmp_path_factory):
     return _diagnosed(tmp_path_factory, "mason", ((408, "cohesion_mason"), (410, "pair_drift_cohesion")))
@@ -101,6 +111,7 @@ def test_chains_breaking_past_a_mason_number_are_a_cohesion_loss(mason):
     _named_first_and_half_removed(mason["cohesion_mason"], "cohesion_loss")
 
 
+@LEVEL_HELD
 def test_a_mason_loosening_beside_a_drift_is_named_with_it(mason):
     scn, res, s = mason["pair_drift_cohesion"]
     assert set(s["named"][:2]) == {"particle_drift", "cohesion_loss"}, \
@@ -124,6 +135,7 @@ def test_rows_that_follow_each_other_are_not_a_gap(rows):
     assert max(res["report"]["gap"]["noise"]["row_lag1_correlation"].values()) > 0.2
 
 
+@LEVEL_HELD
 def test_a_rate_limited_formation_on_streamed_steps_is_named(rows):
     # Plain within the visits (p ~ 1e-12), once lost in the null of the shapes that move the
     # visits' means: reported unexplained.
@@ -148,6 +160,7 @@ def test_an_underdamped_formation_on_streamed_steps_is_named(transients):
     assert s["named"][:1] == ["formation_lag"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
 
 
+@LEVEL_HELD
 def test_a_formation_slower_to_grow_than_to_shrink_is_named(transients):
     # Once the baseline's time scale has taken the average approach, what is left is a lag
     # after the changes that make a radius grow and a lead after those that shrink it, which

@@ -487,28 +487,21 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     }
     // The smallest p-value over a set of alternatives, calibrated by the same simulations
     // (the min-p method of Westfall and Young): correlated alternatives (a shape over f and a
-    // surface over (z_m, f)) do not cost what a Bonferroni correction would charge. Where the
-    // observed minimum lies below every simulated one, the Bonferroni bound of the
-    // gamma-extrapolated p-value (never above 1/(B+1)).
-    let nb = null.len();
+    // surface over (z_m, f)) do not cost what a Bonferroni correction would charge. Each
+    // simulated log's p-values are read as the real log's are (against the other draws, with
+    // the same extrapolated tail: `noise::replicate_ps`); where the observed minimum lies
+    // below every simulated one, the Bonferroni bound of the extrapolated p-value (never
+    // above 1/(B+1)).
     let rep_p: Vec<Vec<f64>> = (0..alts.len())
         .map(|j| {
             let col: Vec<f64> = null.iter().map(|v| v[j]).collect();
-            col.iter()
-                .map(|&x| col.iter().filter(|&&y| y >= x).count() as f64 / (nb + 1) as f64)
-                .collect()
+            noise::replicate_ps(obs[j], &col)
         })
         .collect();
     let min_p = |set: &[usize]| -> f64 {
-        let obs = set.iter().map(|&j| out_alts[j].p).fold(1.0f64, f64::min);
-        let below = (0..nb)
-            .filter(|&b| set.iter().map(|&j| rep_p[j][b]).fold(1.0f64, f64::min) <= obs)
-            .count();
-        if below == 0 {
-            (obs * set.len() as f64).min(1.0 / (nb + 1) as f64)
-        } else {
-            (1 + below) as f64 / (nb + 1) as f64
-        }
+        let obs_p: Vec<f64> = set.iter().map(|&j| out_alts[j].p).collect();
+        let reps: Vec<Vec<f64>> = set.iter().map(|&j| rep_p[j].clone()).collect();
+        noise::min_p(&obs_p, &reps).0
     };
     let mut family_p: Vec<(&'static str, f64)> = Vec::new();
     for fam in ["inputs", "drift", "formation", "lack_of_fit"] {

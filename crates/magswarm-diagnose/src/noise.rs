@@ -604,6 +604,68 @@ pub fn boot_p(obs: f64, null: &[f64]) -> f64 {
         .max(f64::MIN_POSITIVE)
 }
 
+/// The p-value of every replicate, read exactly as the observed statistic's is read by
+/// [`boot_p`]: against the other draws of the exchangeable set (the other replicates and the
+/// observed one), with the same extrapolated tail where a replicate lies beyond all of them.
+///
+/// Why: a min-p over several alternatives (Westfall and Young) compares the observed smallest
+/// p with each replicate's smallest p. Read against the whole null including itself, a
+/// replicate's p never falls below 1 / (1 + B), while the observed one, extrapolated beyond
+/// every replicate, does: then an observed statistic beyond every replicate of any one of K
+/// alternatives (a chance of about K / (1 + B) under the null) gave the smallest p of all.
+/// With 30 to 50 alternatives that was a gap declared on 5 % of null logs at alpha = 0.01.
+pub fn replicate_ps(obs: f64, null: &[f64]) -> Vec<f64> {
+    let b = null.len();
+    let key = |v: f64| if v.is_nan() { f64::NEG_INFINITY } else { v };
+    let mut sorted: Vec<f64> = null.iter().map(|&v| key(v)).collect();
+    sorted.sort_by(f64::total_cmp);
+    let obs = key(obs);
+    null.iter()
+        .enumerate()
+        .map(|(r, &x)| {
+            if x.is_nan() {
+                return 1.0;
+            }
+            // Replicates at or above x, less x itself, and the observed one if it is.
+            let ge = b - sorted.partition_point(|&v| v < x) - 1 + usize::from(obs >= x);
+            if ge > 0 || b < 20 {
+                return (1 + ge) as f64 / (1 + b) as f64;
+            }
+            let others: Vec<f64> = null
+                .iter()
+                .enumerate()
+                .filter(|&(q, _)| q != r)
+                .map(|(_, &v)| key(v))
+                .chain(std::iter::once(obs))
+                .filter(|v| v.is_finite())
+                .collect();
+            boot_p(x, &others)
+        })
+        .collect()
+}
+
+/// Min-p over alternatives (Westfall and Young): the share of the exchangeable draws (the
+/// observed one and its replicates) whose smallest p over the alternatives, each read by
+/// [`boot_p`] against the other draws ([`replicate_ps`]), is as small as the observed one's.
+/// `obs_p[j]` is the observed p of alternative j, `rep_p[j][r]` replicate r's. Beyond every
+/// replicate, the observed smallest p times the alternatives (Bonferroni), never above
+/// 1 / (1 + B). Returns the calibrated p and each replicate's smallest p.
+pub fn min_p(obs_p: &[f64], rep_p: &[Vec<f64>]) -> (f64, Vec<f64>) {
+    let b = rep_p.first().map_or(0, Vec::len);
+    let best = obs_p.iter().copied().fold(1.0f64, f64::min);
+    let rep_min: Vec<f64> = (0..b)
+        .map(|r| rep_p.iter().map(|col| col[r]).fold(1.0f64, f64::min))
+        .collect();
+    let le = rep_min.iter().filter(|&&m| m <= best).count();
+    let emp = (1 + le) as f64 / (1 + b) as f64;
+    let p = if le == 0 {
+        (best * obs_p.len() as f64).min(emp)
+    } else {
+        emp
+    };
+    (p, rep_min)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -776,6 +838,41 @@ mod tests {
         assert!((boot_p(5.0, &null) - 50.0 / 100.0).abs() < 1e-12);
         let far = boot_p(100.0, &null);
         assert!(far < 1e-6 && far > 0.0);
+    }
+
+    /// Twenty alternatives of pure noise: a fresh draw of all twenty (the observed log under
+    /// the null) is beyond every replicate of some alternative about 20 / 500 of the time.
+    /// Read with the replicates' p-values capped at 1 / 500 while the observed one is
+    /// extrapolated, each such draw rejected (about 4 % at alpha = 0.01); read alike, the
+    /// min-p rejects at the level set.
+    #[test]
+    fn min_p_over_many_alternatives_has_the_level_the_user_set() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
+        let k = 20;
+        let null: Vec<Vec<f64>> = (0..k).map(|_| (0..499).map(|_| g()).collect()).collect();
+        let trials = 1000;
+        let rejected = (0..trials)
+            .filter(|_| {
+                let obs: Vec<f64> = (0..k).map(|_| g()).collect();
+                let obs_p: Vec<f64> = (0..k).map(|j| boot_p(obs[j], &null[j])).collect();
+                let rep_p: Vec<Vec<f64>> = (0..k).map(|j| replicate_ps(obs[j], &null[j])).collect();
+                rejects(min_p(&obs_p, &rep_p).0, 0.01)
+            })
+            .count();
+        // 10 expected; binomial SD 3.
+        assert!(
+            (2..=20).contains(&rejected),
+            "{rejected} of {trials} at 0.01"
+        );
+        // A draw far beyond every replicate of one alternative is still strong evidence.
+        let mut obs = vec![0.0; k];
+        obs[3] = 8.0;
+        let obs_p: Vec<f64> = (0..k).map(|j| boot_p(obs[j], &null[j])).collect();
+        let rep_p: Vec<Vec<f64>> = (0..k).map(|j| replicate_ps(obs[j], &null[j])).collect();
+        let (p, rep_min) = min_p(&obs_p, &rep_p);
+        assert!(p < 1e-3, "{p}");
+        assert_eq!(rep_min.len(), 499);
     }
 
     #[test]

@@ -273,24 +273,21 @@ pub(super) fn min_p(obs: &[f64], null: &[Vec<f64>]) -> MinP {
             (kind, best) = (k, p);
         }
     }
-    let b = null.first().map_or(0, Vec::len);
-    let rep_min: Vec<f64> = (0..b)
-        .map(|r| {
-            (0..obs.len())
-                .map(|k| p_of(k, null[k][r]))
-                .fold(1.0, f64::min)
+    // Each replicate's p read as the observed one's (against the other draws, with the same
+    // extrapolated tail: `noise::replicate_ps`), so that an observed gain beyond every
+    // replicate of one kind does not win by a p no replicate can reach.
+    let rep_p: Vec<Vec<f64>> = (0..obs.len())
+        .map(|k| {
+            let g = if obs[k].is_finite() {
+                obs[k]
+            } else {
+                f64::NEG_INFINITY
+            };
+            noise::replicate_ps(g, &null[k])
         })
         .collect();
-    // Calibrated p: the share of simulated logs whose smallest p is as small.
-    let le = rep_min.iter().filter(|&&m| m <= best).count();
-    let emp = (1 + le) as f64 / (1 + b) as f64;
-    // Beyond every replicate, the best kind's own extrapolated tail times the kinds
-    // (Bonferroni), never above the empirical bound.
-    let p = if le == 0 {
-        (best * obs.len() as f64).min(emp)
-    } else {
-        emp
-    };
+    let obs_p: Vec<f64> = (0..obs.len()).map(|k| p_of(k, obs[k])).collect();
+    let (p, rep_min) = noise::min_p(&obs_p, &rep_p);
     let null = rep_min
         .iter()
         .map(|&m| quantile(&null[kind], 1.0 - m))
