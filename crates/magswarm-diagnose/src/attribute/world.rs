@@ -114,18 +114,19 @@ impl<'a> Linear<'a> {
                 None => [0.0; 2],
             }
         };
-        // A first-order approach of each change's step at time constant c tau_b, per axis.
-        let approach = |c: f64| -> DMatrix<f64> {
+        // Each change's step times a per-row factor, per axis (two columns, weighted).
+        let stepped = |factor: &dyn Fn(usize) -> f64| -> DMatrix<f64> {
             let mut a = DMatrix::zeros(2 * n, 2);
             for i in 0..n {
-                let st = step(i);
-                let e = (-ds.rows[i].since / (c * tau_b)).exp();
+                let (st, k) = (step(i), factor(i));
                 for ax in 0..2 {
-                    a[(2 * i + ax, ax)] = w[ax] * st[ax] * e;
+                    a[(2 * i + ax, ax)] = w[ax] * st[ax] * k;
                 }
             }
             a
         };
+        // A first-order approach of each change's step at time constant c tau_b, per axis.
+        let approach = |c: f64| stepped(&|i| (-ds.rows[i].since / (c * tau_b)).exp());
         let mut extra = DMatrix::zeros(2 * n, 6);
         extra.columns_mut(4, 2).copy_from(&approach(0.5));
         for v in &ds.visits {
@@ -215,17 +216,14 @@ impl<'a> Linear<'a> {
             .collect();
         let mut within = DMatrix::zeros(2 * n, 4);
         within.columns_mut(0, 2).copy_from(&approach(1.0));
-        for i in 0..n {
-            if !sees_approach[ds.rows[i].visit] {
-                continue;
-            }
-            let st = step(i);
+        within.columns_mut(2, 2).copy_from(&stepped(&|i| {
             let u = ds.rows[i].since / tau_b;
-            for ax in 0..2 {
-                within[(2 * i + ax, 2 + ax)] =
-                    w[ax] * st[ax] * (ds.rows[i].z - z_mean) * u * (-u).exp();
+            if sees_approach[ds.rows[i].visit] {
+                (ds.rows[i].z - z_mean) * u * (-u).exp()
+            } else {
+                0.0
             }
-        }
+        }));
         rc.within_nuisance = unit_columns(within);
         let fold_of_stacked = (0..2 * n)
             .map(|s| fold_of_visit[ds.rows[s / 2].visit])
