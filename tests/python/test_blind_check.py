@@ -15,7 +15,8 @@ effect terms, diagnosed by the release binary.
   name an effect. The within-visit tests after only the growing, or only the shrinking,
   changes read that lab's own approach as a formation effect on five of them (`formation_lag`
   named at gap p 1e-6 ... 1e-16) before the approach's time scale varied with the depth in
-  their nuisance; one (seed 11) still names it.
+  their nuisance; one (seed 11) named it until the gap tests' min-p held its level (gap p
+  2e-3, now 0.034).
 
 Needs target/release/magswarm (`cargo build --release`); skips without it, fails under CI.
 """
