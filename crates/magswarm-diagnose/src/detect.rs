@@ -500,7 +500,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         .collect();
     let min_p = |set: &[usize]| -> f64 {
         let obs_p: Vec<f64> = set.iter().map(|&j| out_alts[j].p).collect();
-        let reps: Vec<Vec<f64>> = set.iter().map(|&j| rep_p[j].clone()).collect();
+        let reps: Vec<&[f64]> = set.iter().map(|&j| rep_p[j].as_slice()).collect();
         noise::min_p(&obs_p, &reps).0
     };
     let mut family_p: Vec<(&'static str, f64)> = Vec::new();

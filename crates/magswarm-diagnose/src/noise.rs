@@ -650,11 +650,16 @@ pub fn replicate_ps(obs: f64, null: &[f64]) -> Vec<f64> {
 /// `obs_p[j]` is the observed p of alternative j, `rep_p[j][r]` replicate r's. Beyond every
 /// replicate, the observed smallest p times the alternatives (Bonferroni), never above
 /// 1 / (1 + B). Returns the calibrated p and each replicate's smallest p.
-pub fn min_p(obs_p: &[f64], rep_p: &[Vec<f64>]) -> (f64, Vec<f64>) {
-    let b = rep_p.first().map_or(0, Vec::len);
+pub fn min_p<C: AsRef<[f64]>>(obs_p: &[f64], rep_p: &[C]) -> (f64, Vec<f64>) {
+    let b = rep_p.first().map_or(0, |c| c.as_ref().len());
     let best = obs_p.iter().copied().fold(1.0f64, f64::min);
     let rep_min: Vec<f64> = (0..b)
-        .map(|r| rep_p.iter().map(|col| col[r]).fold(1.0f64, f64::min))
+        .map(|r| {
+            rep_p
+                .iter()
+                .map(|col| col.as_ref()[r])
+                .fold(1.0f64, f64::min)
+        })
         .collect();
     let le = rep_min.iter().filter(|&&m| m <= best).count();
     let emp = (1 + le) as f64 / (1 + b) as f64;

@@ -258,17 +258,20 @@ pub(super) fn min_p(obs: &[f64], null: &[Vec<f64>]) -> MinP {
             null: nl.clone(),
         };
     }
-    let p_of = |k: usize, g: f64| {
-        if g.is_finite() {
-            noise::boot_p(g, &null[k])
-        } else {
-            1.0
-        }
-    };
+    let obs_p: Vec<f64> = obs
+        .iter()
+        .zip(null)
+        .map(|(&g, nl)| {
+            if g.is_finite() {
+                noise::boot_p(g, nl)
+            } else {
+                1.0
+            }
+        })
+        .collect();
     let mut kind = 0;
     let mut best = f64::INFINITY;
-    for (k, &g) in obs.iter().enumerate() {
-        let p = p_of(k, g);
+    for (k, (&g, &p)) in obs.iter().zip(&obs_p).enumerate() {
         if p < best || (p == best && g > obs[kind]) {
             (kind, best) = (k, p);
         }
@@ -286,7 +289,6 @@ pub(super) fn min_p(obs: &[f64], null: &[Vec<f64>]) -> MinP {
             noise::replicate_ps(g, &null[k])
         })
         .collect();
-    let obs_p: Vec<f64> = (0..obs.len()).map(|k| p_of(k, obs[k])).collect();
     let (p, rep_min) = noise::min_p(&obs_p, &rep_p);
     let null = rep_min
         .iter()
