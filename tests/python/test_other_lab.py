@@ -94,12 +94,14 @@ def test_a_significant_drift_without_a_standout_stretch_is_weighed_and_named(oth
 
 # Change 13 (docs/diagnose.md): the gap tests' min-p now reads every simulated log's p-values as
 # the real log's are, and holds the level set (on 100 null grids a gap on 1, before on 6). These
-# logs' gaps (o402_08, o408_07; for o410_18 the gap left once its drift is named) rested on a
-# statistic just beyond every simulation of one of some 50 alternatives (combined p 2e-3
-# before, 0.014 and 0.028 now): at alpha = 0.01 that is no longer a gap, and the effect is not
-# reached. Kept as expected failures, so that they show when power is won back
-# honestly (the named candidates' own evidence is far stronger than the gap tests' shapes').
-LEVEL_HELD = pytest.mark.xfail(strict=True, reason="gap p 0.014-0.028 once the min-p holds its level (Change 13)")
+# logs' gaps (o408_07; for o410_18 the gap left once its drift is named) rested on a statistic
+# just beyond every simulation of one of some 50 alternatives (combined p 2e-3 before, 0.028
+# now): at alpha = 0.01 that is no longer a gap, and the effect is not reached. Change 14's
+# joint gate (the candidates judged with the tests) won back the rate-limited formation
+# (o402_08) but not these: the hysteresis's own candidate reads p 0.008 before the choice is
+# paid (0.034 after), and a second name is judged by the tests alone. Kept as expected
+# failures, so that they show when power is won back honestly.
+LEVEL_HELD = pytest.mark.xfail(strict=True, reason="gap p 0.028-0.034 once the min-p holds its level (Change 13)")
 
 
 @pytest.fixture(scope="module")
@@ -135,12 +137,18 @@ def test_rows_that_follow_each_other_are_not_a_gap(rows):
     assert max(res["report"]["gap"]["noise"]["row_lag1_correlation"].values()) > 0.2
 
 
-@LEVEL_HELD
 def test_a_rate_limited_formation_on_streamed_steps_is_named(rows):
     # Plain within the visits (p ~ 1e-12), once lost in the null of the shapes that move the
-    # visits' means: reported unexplained.
+    # visits' means: reported unexplained. Then (Change 13) the gap tests' smallest p, paid over
+    # some 50 alternatives, came to 0.014, and the candidate was never reached. Since Change 14
+    # the candidates are judged with the tests in one min-p: formation_lag's own evidence
+    # opens the gate, and the report says so.
     scn, res, s = rows["formation_rate_limit"]
     assert s["named"][:1] == ["formation_lag"], f"{scn['name']}: named {s['named']}; {s['candidates']}"
+    gap = res["report"]["gap"]
+    assert gap["significant"] and gap["p_value"] <= gap["alpha"], gap["p_value"]
+    if gap["tests_p_value"] > gap["alpha"]:
+        assert (gap["opened_by"] or {}).get("effect") == "formation_lag", gap["opened_by"]
 
 
 @pytest.fixture(scope="module")

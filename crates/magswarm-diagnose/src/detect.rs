@@ -31,6 +31,11 @@ use super::shapes::{self, Axis, Family, Mode, RowCtx, Steps};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
+/// Mixed into the user's seed for the simulated logs of the gap tests. A round of selection
+/// scores its candidates on the same simulated logs (`attribute`), so that the tests and the
+/// candidates can be judged together in one min-p.
+pub const SEED: u64 = 0xD7EC;
+
 /// What the tests see: the data, the rows' context, the weighted residual and the current
 /// design.
 pub struct Setting<'a> {
@@ -70,10 +75,31 @@ pub struct Detection {
     pub alts: Vec<Alt>,
     /// Family p-values (min-p over the alternatives, calibrated by the simulations).
     pub family_p: Vec<(&'static str, f64)>,
-    /// The gap's p-value (min-p over every alternative, calibrated by the simulations).
+    /// The gap's p-value: the tests' min-p over every alternative, calibrated by the
+    /// simulations ([`Detection::tests_p`]), or, once a round of selection has judged the
+    /// candidates on the same simulations, the smaller of the tests' smallest p and the named
+    /// candidate's, each adjusted over the tests and the candidates together
+    /// (`attribute`'s gate).
     pub p_value: f64,
     /// Significant at alpha.
     pub significant: bool,
+    /// The tests' own min-p over every alternative.
+    pub tests_p: f64,
+    /// The smallest raw (unadjusted) p-value over the alternatives.
+    pub obs_min: f64,
+    /// Each simulated log's smallest p over the alternatives, read as the real log's are
+    /// (`noise::replicate_ps`), by replicate number (NaN where a replicate could not be
+    /// evaluated): the candidates of a round, scored on the same simulated logs, join them in
+    /// one min-p.
+    pub rep_min: Vec<f64>,
+    /// Alternatives.
+    pub n_alts: usize,
+    /// The tests' smallest p adjusted over the tests and the round's candidates together
+    /// (the tests' own min-p until a round has judged them together).
+    pub gate_tests_p: f64,
+    /// The candidate whose gain, adjusted over the tests and the candidates together, opened
+    /// the gate when the tests alone did not, with its adjusted p-value.
+    pub opened_by: Option<(String, f64)>,
     /// Families significant after the correction.
     pub families: Vec<&'static str>,
     /// Visit noise of the current residual, per axis \[mm\].
@@ -468,13 +494,17 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         };
     let (obs, real_sds) = stats_of(st.y, None)?;
     let sd = real_sds[0];
-    let null: Vec<Vec<f64>> = (0..st.boot)
+    // By replicate number: the candidates of a round are scored on the same simulated logs
+    // (`attribute`), and a joint min-p pairs them replicate by replicate.
+    let by_rep: Vec<Option<Vec<f64>>> = (0..st.boot)
         .into_par_iter()
-        .filter_map(|b| {
+        .map(|b| {
             let y = noise::simulate(ds, st.noise, w, st.seed, b);
             stats_of(&y, Some(&real_sds)).map(|x| x.0)
         })
         .collect();
+    let kept: Vec<usize> = (0..st.boot).filter(|&b| by_rep[b].is_some()).collect();
+    let null: Vec<&Vec<f64>> = by_rep.iter().flatten().collect();
     let mut out_alts = Vec::new();
     for (j, (fam, name, _, _)) in alts.iter().enumerate() {
         let nj: Vec<f64> = null.iter().map(|v| v[j]).collect();
@@ -498,10 +528,10 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             noise::replicate_ps(obs[j], &col)
         })
         .collect();
-    let min_p = |set: &[usize]| -> f64 {
+    let min_p = |set: &[usize]| -> (f64, Vec<f64>) {
         let obs_p: Vec<f64> = set.iter().map(|&j| out_alts[j].p).collect();
         let reps: Vec<&[f64]> = set.iter().map(|&j| rep_p[j].as_slice()).collect();
-        noise::min_p(&obs_p, &reps).0
+        noise::min_p(&obs_p, &reps)
     };
     let mut family_p: Vec<(&'static str, f64)> = Vec::new();
     for fam in ["inputs", "drift", "formation", "lack_of_fit"] {
@@ -509,11 +539,16 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             .filter(|&j| out_alts[j].family == fam)
             .collect();
         if !set.is_empty() {
-            family_p.push((fam, min_p(&set)));
+            family_p.push((fam, min_p(&set).0));
         }
     }
     let all: Vec<usize> = (0..out_alts.len()).collect();
-    let p_value = min_p(&all);
+    let (p_value, rep_kept) = min_p(&all);
+    let mut rep_min = vec![f64::NAN; st.boot];
+    for (&b, &m) in kept.iter().zip(&rep_kept) {
+        rep_min[b] = m;
+    }
+    let obs_min = out_alts.iter().map(|a| a.p).fold(1.0f64, f64::min);
     let families = family_p
         .iter()
         .filter(|f| noise::rejects(f.1, alpha))
@@ -524,6 +559,12 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         family_p,
         p_value,
         significant: noise::rejects(p_value, alpha),
+        tests_p: p_value,
+        obs_min,
+        rep_min,
+        n_alts: alts.len(),
+        gate_tests_p: p_value,
+        opened_by: None,
         families,
         visit_sd: sd,
     })

@@ -8,8 +8,11 @@
 //!    scales where the log holds transients) on the training log.
 //! 2. **Is there a gap** ([`gap`]): lack of fit against the pure error of the repeats, and
 //!    residual structure over the inputs, over session time and after input changes, by
-//!    permutation and paired tests with the visit as the unit. No significant gap: nothing is
-//!    accepted.
+//!    permutation and paired tests with the visit as the unit, calibrated by simulated logs
+//!    ([`detect`]). The candidates of step 4 are scored on the same simulated logs, and the gap
+//!    is declared when the tests' smallest p or the candidate that would be named, each
+//!    adjusted over the tests and the candidates together (a weighted min-p), reaches alpha.
+//!    No significant gap: nothing is accepted.
 //! 3. **Where** ([`gap::localise`]): regions as ranges of z_m, f and time, with
 //!    Benjamini-Hochberg control over the boxes searched.
 //! 4. **Which effect** ([`attribute`]): each candidate ([`candidates`]) refitted with the
@@ -372,36 +375,36 @@ pub fn diagnose_with_progress(
             base: &lin.jac,
             noise: &lin.noise,
             boot: cfg.boot,
-            seed: cfg.seed ^ 0xD7EC,
+            seed: cfg.seed ^ detect::SEED,
         },
         cfg.alpha,
     )
     .ok_or_else(|| DiagnoseError::GapTests {
         source_name: log.source.clone(),
     })?;
-    let tests = to_tests(&det0, &res);
-    let regions = if tests.significant {
-        gap::localise(&ds, &res, &base_map, &tests)
-    } else {
-        Vec::new()
-    };
     pb.inc(2);
     pb.stage("candidates");
-    let attr = attribute::attribute(
+    let mut det0 = det0;
+    let mut attr = attribute::attribute(
         &lin,
         &fold_of_visit,
-        &regions,
-        &base_map,
+        &mut det0,
         attribute::Settings {
             folds: cfg.folds,
             alpha: cfg.alpha,
             max_effects: cfg.max_effects,
             seed: cfg.seed,
             boot: cfg.boot,
-            formation_seen: det0.families.contains(&"formation"),
         },
         pb,
     );
+    let tests = to_tests(&det0, &res);
+    let regions = if tests.significant {
+        gap::localise(&ds, &res, &base_map, &tests)
+    } else {
+        Vec::new()
+    };
+    attribute::signatures(&mut attr, &ds, &regions, &base_map);
     // Unexplained regions, with the discrepancy's withheld recovery.
     let res_aug = ds.residuals(&attr.augmented.pred);
     let res_cv = ds.residuals(&attr.augmented.cv);

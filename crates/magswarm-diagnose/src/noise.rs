@@ -661,14 +661,25 @@ pub fn min_p<C: AsRef<[f64]>>(obs_p: &[f64], rep_p: &[C]) -> (f64, Vec<f64>) {
                 .fold(1.0f64, f64::min)
         })
         .collect();
-    let le = rep_min.iter().filter(|&&m| m <= best).count();
+    (adjusted(best, &rep_min, obs_p.len() as f64), rep_min)
+}
+
+/// The min-p adjusted p-value (Westfall and Young, single step) of a raw p-value `q` in a
+/// family of `k` statistics whose replicates' smallest p-values are `rep_min`: the share of
+/// the exchangeable draws whose smallest p is as small; beyond every replicate, `q k`
+/// (Bonferroni; with weights, `k` is the sum over the statistics of the ratio of each one's
+/// weight to the one judged), never above 1 / (1 + B). Any statistic of the family adjusted this way
+/// rejects at `alpha` with probability at most `alpha` under the null, however the one
+/// judged is chosen.
+pub fn adjusted(q: f64, rep_min: &[f64], k: f64) -> f64 {
+    let b = rep_min.len();
+    let le = rep_min.iter().filter(|&&m| m <= q).count();
     let emp = (1 + le) as f64 / (1 + b) as f64;
-    let p = if le == 0 {
-        (best * obs_p.len() as f64).min(emp)
+    if le == 0 {
+        (q * k.max(1.0)).min(emp)
     } else {
         emp
-    };
-    (p, rep_min)
+    }
 }
 
 #[cfg(test)]

@@ -35,6 +35,14 @@ pub(super) struct Scored {
     pub(super) p: f64,
     pub(super) best: Option<Variant>,
     pub(super) variant: String,
+    /// The smallest raw p-value over its kinds of variant (unadjusted).
+    pub(super) raw_p: f64,
+    /// Each simulated log's smallest p over the kinds, read as the real log's
+    /// (`noise::replicate_ps`), by replicate number (NaN: not evaluated). The simulated logs
+    /// are the gap tests' own: the round's gate pairs them replicate by replicate.
+    pub(super) rep_p: Vec<f64>,
+    /// Kinds of variant judged (statistics this candidate adds to a joint min-p).
+    pub(super) kinds: usize,
 }
 
 /// Score every candidate on top of design `cur` by its withheld gain and its bootstrap null.
@@ -43,7 +51,6 @@ pub(super) fn score_round(
     cur: &Design,
     cands: &[(Cand, Vec<Variant>)],
     st: &Settings,
-    round: usize,
 ) -> Option<Vec<Scored>> {
     let ds = lin.ds;
     let cur_s = Solver::new(cur, &lin.fold_of_stacked, lin.k)?;
@@ -159,14 +166,24 @@ pub(super) fn score_round(
         Some((out, sds))
     };
     let (obs, real_sds) = gains_of(&lin.y, None)?;
-    let seed = st.seed ^ (round as u64).wrapping_mul(0xA77_0001);
-    let null: Vec<Vec<Vec<f64>>> = (0..st.boot)
+    // The gap tests' simulated logs (`setting`'s seed): replicate b here is replicate b there.
+    let seed = st.seed ^ detect::SEED;
+    let by_rep: Vec<Option<Vec<Vec<f64>>>> = (0..st.boot)
         .into_par_iter()
-        .filter_map(|b| {
+        .map(|b| {
             let y = noise::simulate(ds, &lin.noise, lin.rc.w, seed, b);
             gains_of(&y, Some(&real_sds)).map(|x| x.0)
         })
         .collect();
+    let kept: Vec<usize> = (0..st.boot).filter(|&b| by_rep[b].is_some()).collect();
+    let null: Vec<&Vec<Vec<f64>>> = by_rep.iter().flatten().collect();
+    let spread = |rep: &[f64]| -> Vec<f64> {
+        let mut out = vec![f64::NAN; st.boot];
+        for (&b, &m) in kept.iter().zip(rep) {
+            out[b] = m;
+        }
+        out
+    };
     let one_fold_e0 = cur_in.residual(&lin.y);
     Some(
         cands
@@ -202,6 +219,8 @@ pub(super) fn score_round(
                     kind: ki,
                     p,
                     null: nl,
+                    raw,
+                    rep_min,
                 } = min_p(&obs_g, &null_k);
                 let (g, vi) = obs_k[ki];
                 if kinds.len() > 1 {
@@ -226,6 +245,9 @@ pub(super) fn score_round(
                     null: nl,
                     variant: describe(&vs[vi]),
                     best,
+                    raw_p: raw,
+                    rep_p: spread(&rep_min),
+                    kinds: kinds.len(),
                 }
             })
             .collect(),
@@ -241,6 +263,10 @@ pub(super) struct MinP {
     /// The null of the best kind's gain with the choice among the kinds priced in: each
     /// replicate's smallest p, read back as a gain on the best kind's own null.
     pub(super) null: Vec<f64>,
+    /// The smallest raw p over the kinds.
+    pub(super) raw: f64,
+    /// Each replicate's smallest p over the kinds, read as the observed ones.
+    pub(super) rep_min: Vec<f64>,
 }
 
 /// Min-p over kinds of a candidate's variants (Westfall and Young): each kind's gain is read
@@ -252,10 +278,13 @@ pub(super) struct MinP {
 pub(super) fn min_p(obs: &[f64], null: &[Vec<f64>]) -> MinP {
     if let ([g], [nl]) = (obs, null) {
         // One kind: its own p and null, as they are.
+        let p = noise::boot_p(*g, nl);
         return MinP {
             kind: 0,
-            p: noise::boot_p(*g, nl),
+            p,
             null: nl.clone(),
+            raw: p,
+            rep_min: noise::replicate_ps(*g, nl),
         };
     }
     let obs_p: Vec<f64> = obs
@@ -294,7 +323,13 @@ pub(super) fn min_p(obs: &[f64], null: &[Vec<f64>]) -> MinP {
         .iter()
         .map(|&m| quantile(&null[kind], 1.0 - m))
         .collect();
-    MinP { kind, p, null }
+    MinP {
+        kind,
+        p,
+        null,
+        raw: best,
+        rep_min,
+    }
 }
 
 #[cfg(test)]

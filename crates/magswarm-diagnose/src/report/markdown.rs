@@ -25,19 +25,27 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     if !gt.significant {
         let _ = writeln!(
             w,
-            "**No significant gap** (combined p = {:.3e} > alpha = {}): the baseline's residuals show no structure over the inputs, over session time or after input changes beyond what the repeats' noise explains. No effect is accepted.\n",
+            "**No significant gap** (combined p = {:.3e} > alpha = {}): neither the baseline's residuals (structure over the inputs, over session time or after input changes) nor any candidate effect's withheld gain lie beyond what the log's own noise makes, once the choice among the tests and the candidates is paid. No effect is accepted.\n",
             Pv(gt.p_value), d.cfg.alpha
         );
     } else {
         let _ = writeln!(
             w,
-            "**Significant gap** (combined p = {:.3e} <= alpha = {}; families: {}).\n",
+            "**Significant gap** (combined p = {:.3e} <= alpha = {}; {}).\n",
             Pv(gt.p_value),
             d.cfg.alpha,
-            gt.families.join(", ")
+            match &d.detection.opened_by {
+                Some((e, q)) => format!(
+                    "found by the candidate `{e}`: its withheld gain, adjusted over every gap test and candidate, p = {:.2e}, where the gap tests' own smallest p, adjusted the same way, did not reach alpha (the tests alone: min-p = {:.2e}){}",
+                    Pv(*q),
+                    Pv(d.detection.tests_p),
+                    if gt.families.is_empty() { String::new() } else { format!("; families: {}", gt.families.join(", ")) }
+                ),
+                None => format!("families: {}", if gt.families.is_empty() { "none alone (only the smallest p over all of them)".to_string() } else { gt.families.join(", ") }),
+            }
         );
         if d.attr.accepted.is_empty() {
-            let _ = writeln!(w, "{}: the gap is reported as **unexplained** rather than given a name the data do not support.\n", if d.attr.anomaly_won { "A local anomaly (a small box of operating points that no effect describes) explains it better than any effect" } else { "No candidate effect lies beyond its null" });
+            let _ = writeln!(w, "{}: the gap is reported as **unexplained** rather than given a name the data do not support.\n", if d.attr.anomaly_won { "A local anomaly (a small box of operating points that no effect describes) explains it better than any effect" } else { if d.attr.evals.iter().any(|e| e.passed) { "No candidate effect is named (those beyond their null were passed over or dropped: the candidate table's notes say why)" } else { "No candidate effect lies beyond its null" } });
         } else {
             let _ = writeln!(
                 w,
@@ -146,8 +154,9 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     }
     let _ = writeln!(
         w,
-        "\nEach alternative is a smooth shape (over f, over z_m, a surface over both, over session time, over the time since an input change scaled by the step, after every change or only after those that make a radius grow, or shrink) or the strongest box of neighbouring operating points, refitted jointly with the baseline's free parameters; the statistic is the drop of the residual sum of squares in row-noise units, studentised by the visit noise of the same residual (the biweight scale of its neighbour differences; the MAD for the transients after a change). The `_within` alternatives take each visit's mean out of the shape and of the baseline's columns, and the rig's own first-order approach at the baseline's time constant (its time scale also varying linearly with z_m, on visits with a row within that time constant of the change) with them: they see only what varies within a visit, judged against the row noise. Each statistic's null distribution comes from {} logs of pure noise with this log's design and noise structure (visit offsets and row noise), each refitted and re-estimated like the real one. Each smooth alternative is judged per radius, and all but the transients after a change also on both radii together (r1+r2, the sum of their drops). Family p and combined p: the smallest p-value over the family's (or every) alternative, calibrated by the same simulations (min-p: each simulated log's p-values read like the real one's, against the other draws). For the record, the classical lack-of-fit F test (pure error from {}): r1 F = {} (p = {:.2e}), r2 F = {} (p = {:.2e}).\n",
+        "\nEach alternative is a smooth shape (over f, over z_m, a surface over both, over session time, over the time since an input change scaled by the step, after every change or only after those that make a radius grow, or shrink) or the strongest box of neighbouring operating points, refitted jointly with the baseline's free parameters; the statistic is the drop of the residual sum of squares in row-noise units, studentised by the visit noise of the same residual (the biweight scale of its neighbour differences; the MAD for the transients after a change). The `_within` alternatives take each visit's mean out of the shape and of the baseline's columns, and the rig's own first-order approach at the baseline's time constant (its time scale also varying linearly with z_m, on visits with a row within that time constant of the change) with them: they see only what varies within a visit, judged against the row noise. Each statistic's null distribution comes from {} logs of pure noise with this log's design and noise structure (visit offsets and row noise), each refitted and re-estimated like the real one. Each smooth alternative is judged per radius, and all but the transients after a change also on both radii together (r1+r2, the sum of their drops). Family p: the smallest p-value over the family's alternatives, calibrated by the same simulations (min-p: each simulated log's p-values read like the real one's, against the other draws); the tests' min-p over every alternative: {:.2e}. The candidates below are scored on the same simulated logs, and the gap's combined p is the smaller of the tests' smallest p and the named candidate's (on the baseline; after a named effect, the tests' alone), each adjusted over every test and every candidate together (a single-step min-p, each candidate's p weighted at a tenth of a test's: the chance of a gap declared on a log with none stays at alpha whichever of them finds it). For the record, the classical lack-of-fit F test (pure error from {}): r1 F = {} (p = {:.2e}), r2 F = {} (p = {:.2e}).\n",
         d.cfg.boot,
+        Pv(d.detection.tests_p),
         if gt.lof_from_visits { "repeat visits" } else { "rows within visits, which cannot see the visit-to-visit error: not in the decision" },
         g(gt.lof[0].f), gt.lof[0].p, g(gt.lof[1].f), gt.lof[1].p,
     );
@@ -183,7 +192,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     if d.attr.evals.is_empty() {
         let _ = writeln!(
             w,
-            "Not evaluated: there is no significant gap to attribute.\n"
+            "Not evaluated: the candidates could not be scored on this log (a design the linear refits cannot solve).\n"
         );
     } else {
         let _ = writeln!(w, "| effect | round | withheld gain | null {:.0} % quantile | bootstrap p | best variant | form in the model (gain library / learned) | notes | share of a region removed | withheld RMSE r1 / r2 [mm] | parameters | verdict |\n|---|---|---|---|---|---|---|---|---|---|---|---|", 100.0 * (1.0 - d.cfg.alpha));
@@ -261,7 +270,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
                 if d.attr.anomaly_won { ": it beat every effect, so the gap is reported unexplained" } else { "" }
             );
         }
-        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in units of a row's noise, best variant; for a shape judged within the visits, in units of a row's noise about its visit's mean) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p <= alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile; forward selection continues while the gap tests still find a gap. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
+        let _ = writeln!(w, "\nHow an effect is named: every candidate is a family of shapes along its physical axis (or its library form's correction, for effects without one), refitted with the baseline's free parameters on {}-fold cross-validation grouped by visit. Its withheld gain (half the drop of the withheld sum of squares, in units of a row's noise, best variant; for a shape judged within the visits, in units of a row's noise about its visit's mean) is compared with its null distribution from logs simulated from the current model with this log's design and noise, refitted the same way. A candidate beyond its null (p <= alpha, gain >= {}) is named when it lies furthest beyond its null's {:.0} % quantile and there is a gap (combined p <= alpha, above: the tests and the candidates judged together); forward selection continues while a gap remains, judged the same way on what the named effects leave. Plausibility and the share of a region removed are reasons, not vetoes. Each named effect enters `augmented.json` in its library form where that gains at least 90 % of what the learned shape gains on withheld visits, otherwise as a learned effect term (docs/effects.md).\n", d.attr.fold_of_visit.iter().copied().max().map(|m| m + 1).unwrap_or(0), crate::attribute::MIN_GAIN, 100.0 * (1.0 - d.cfg.alpha));
     }
     let _ = writeln!(w, "## Unexplained\n");
     if d.unexplained.is_empty() {
