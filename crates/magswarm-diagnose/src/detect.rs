@@ -85,15 +85,11 @@ pub struct Detection {
     pub significant: bool,
     /// The tests' own min-p over every alternative.
     pub tests_p: f64,
-    /// The smallest raw (unadjusted) p-value over the alternatives.
-    pub obs_min: f64,
     /// Each simulated log's smallest p over the alternatives, read as the real log's are
     /// (`noise::replicate_ps`), by replicate number (NaN where a replicate could not be
     /// evaluated): the candidates of a round, scored on the same simulated logs, join them in
     /// one min-p.
     pub rep_min: Vec<f64>,
-    /// Alternatives.
-    pub n_alts: usize,
     /// The tests' smallest p adjusted over the tests and the round's candidates together
     /// (the tests' own min-p until a round has judged them together).
     pub gate_tests_p: f64,
@@ -104,6 +100,13 @@ pub struct Detection {
     pub families: Vec<&'static str>,
     /// Visit noise of the current residual, per axis \[mm\].
     pub visit_sd: [f64; 2],
+}
+
+impl Detection {
+    /// The smallest raw (unadjusted) p-value over the alternatives.
+    pub fn obs_min(&self) -> f64 {
+        self.alts.iter().map(|a| a.p).fold(1.0f64, f64::min)
+    }
 }
 
 /// The smooth alternatives (family name, alternative name, shape family) for a data set.
@@ -503,7 +506,6 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
             stats_of(&y, Some(&real_sds)).map(|x| x.0)
         })
         .collect();
-    let kept: Vec<usize> = (0..st.boot).filter(|&b| by_rep[b].is_some()).collect();
     let null: Vec<&Vec<f64>> = by_rep.iter().flatten().collect();
     let mut out_alts = Vec::new();
     for (j, (fam, name, _, _)) in alts.iter().enumerate() {
@@ -544,11 +546,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     }
     let all: Vec<usize> = (0..out_alts.len()).collect();
     let (p_value, rep_kept) = min_p(&all);
-    let mut rep_min = vec![f64::NAN; st.boot];
-    for (&b, &m) in kept.iter().zip(&rep_kept) {
-        rep_min[b] = m;
-    }
-    let obs_min = out_alts.iter().map(|a| a.p).fold(1.0f64, f64::min);
+    let rep_min = noise::by_replicate_number(&by_rep, &rep_kept);
     let families = family_p
         .iter()
         .filter(|f| noise::rejects(f.1, alpha))
@@ -560,9 +558,7 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
         p_value,
         significant: noise::rejects(p_value, alpha),
         tests_p: p_value,
-        obs_min,
         rep_min,
-        n_alts: alts.len(),
         gate_tests_p: p_value,
         opened_by: None,
         families,

@@ -367,7 +367,7 @@ pub fn diagnose_with_progress(
         let old = gap::tests(&ds, r, &pe, &base_map, n_free, cfg.alpha, 0, cfg.seed);
         gap::GapTests::from_detection(old, det)
     };
-    let det0 = detect::detect(
+    let mut det0 = detect::detect(
         &detect::Setting {
             ds: &ds,
             rc: &lin.rc,
@@ -384,7 +384,6 @@ pub fn diagnose_with_progress(
     })?;
     pb.inc(2);
     pb.stage("candidates");
-    let mut det0 = det0;
     let mut attr = attribute::attribute(
         &lin,
         &fold_of_visit,

@@ -664,6 +664,21 @@ pub fn min_p<C: AsRef<[f64]>>(obs_p: &[f64], rep_p: &[C]) -> (f64, Vec<f64>) {
     (adjusted(best, &rep_min, obs_p.len() as f64), rep_min)
 }
 
+/// Values of the replicates that could be evaluated (`by_rep[b]` is Some), in order, put back
+/// at their replicate numbers (NaN for the others): so that two calibrations run on the same
+/// simulated logs (the gap tests and a round's candidates) can be paired replicate by
+/// replicate.
+pub fn by_replicate_number<T>(by_rep: &[Option<T>], vals: &[f64]) -> Vec<f64> {
+    let mut vals = vals.iter();
+    by_rep
+        .iter()
+        .map(|r| match r {
+            Some(_) => vals.next().copied().unwrap_or(f64::NAN),
+            None => f64::NAN,
+        })
+        .collect()
+}
+
 /// The min-p adjusted p-value (Westfall and Young, single step) of a raw p-value `q` in a
 /// family of `k` statistics whose replicates' smallest p-values are `rep_min`: the share of
 /// the exchangeable draws whose smallest p is as small; beyond every replicate, `q k`

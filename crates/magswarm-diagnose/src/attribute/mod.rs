@@ -694,22 +694,19 @@ fn gate(det: &detect::Detection, scored: &[Scored], best: Option<usize>) -> Gate
     let b = det.rep_min.len();
     let rep_min: Vec<f64> = (0..b)
         .filter_map(|r| {
-            let mut m = det.rep_min[r];
+            // A replicate either side could not evaluate is left out of both.
+            let mut m = Some(det.rep_min[r]).filter(|m| !m.is_nan())?;
             for s in scored {
-                let q = *s.rep_p.get(r)?;
-                if q.is_nan() {
-                    return None;
-                }
+                let q = Some(*s.rep_p.get(r)?).filter(|q| !q.is_nan())?;
                 m = m.min(q / w);
             }
-            // A replicate either side could not evaluate is left out of both.
-            (!det.rep_min[r].is_nan()).then_some(m)
+            Some(m)
         })
         .collect();
     // P(tests' min <= q) + P(a candidate's <= w q) <= q (alternatives + w kinds).
-    let k = det.n_alts as f64 + w * scored.iter().map(|s| s.kinds).sum::<usize>() as f64;
+    let k = det.alts.len() as f64 + w * scored.iter().map(|s| s.kinds).sum::<usize>() as f64;
     Gate {
-        tests: noise::adjusted(det.obs_min, &rep_min, k),
+        tests: noise::adjusted(det.obs_min(), &rep_min, k),
         candidate: best.map(|i| noise::adjusted(scored[i].raw_p / w, &rep_min, k)),
     }
 }
@@ -906,14 +903,20 @@ mod tests {
                 .collect();
             let (tests_p, rep_min) = noise::min_p(&obs_p[..nt], &rep_p[..nt]);
             let det = detect::Detection {
-                alts: Vec::new(),
+                alts: obs_p[..nt]
+                    .iter()
+                    .map(|&p| detect::Alt {
+                        family: "inputs",
+                        name: String::new(),
+                        stat: 0.0,
+                        p,
+                    })
+                    .collect(),
                 family_p: Vec::new(),
                 p_value: tests_p,
                 significant: false,
                 tests_p,
-                obs_min: obs_p[..nt].iter().copied().fold(1.0, f64::min),
                 rep_min,
-                n_alts: nt,
                 gate_tests_p: tests_p,
                 opened_by: None,
                 families: Vec::new(),

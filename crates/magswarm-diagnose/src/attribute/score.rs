@@ -175,15 +175,7 @@ pub(super) fn score_round(
             gains_of(&y, Some(&real_sds)).map(|x| x.0)
         })
         .collect();
-    let kept: Vec<usize> = (0..st.boot).filter(|&b| by_rep[b].is_some()).collect();
     let null: Vec<&Vec<Vec<f64>>> = by_rep.iter().flatten().collect();
-    let spread = |rep: &[f64]| -> Vec<f64> {
-        let mut out = vec![f64::NAN; st.boot];
-        for (&b, &m) in kept.iter().zip(rep) {
-            out[b] = m;
-        }
-        out
-    };
     let one_fold_e0 = cur_in.residual(&lin.y);
     Some(
         cands
@@ -246,7 +238,7 @@ pub(super) fn score_round(
                     variant: describe(&vs[vi]),
                     best,
                     raw_p: raw,
-                    rep_p: spread(&rep_min),
+                    rep_p: noise::by_replicate_number(&by_rep, &rep_min),
                     kinds: kinds.len(),
                 }
             })
