@@ -549,14 +549,16 @@ pub fn attribute(
                 p: s.p,
                 variant: s.variant.clone(),
                 implausible: Vec::new(),
-                notes: if let Some(p) =
+                // The first reason that kept it out: a candidate set aside before the gate (a
+                // formation the gap tests do not see) was never a route to open it.
+                notes: if unseen == Some(i) {
+                    vec!["not named: beyond its null, but the gap tests find no structure after the input changes beside the rig's own approach".to_string()]
+                } else if let Some(p) =
                     closed.filter(|_| noise::rejects(s.p, st.alpha) && s.gain >= MIN_GAIN)
                 {
                     vec![format!("not named: beyond its own null, but with the choice among the gap tests and every candidate paid there is no gap (joint p = {p:.2e} > alpha = {})", st.alpha)]
                 } else if let Some((_, share)) = minor.filter(|m| m.0 == i) {
                     vec![format!("not named: beyond its null, but it removes {:.0} % of the withheld error left above the noise floor (a camera offset is named from {:.0} %)", 100.0 * share.max(0.0), 100.0 * MIN_SHARE)]
-                } else if unseen == Some(i) {
-                    vec!["not named: beyond its null, but the gap tests find no structure after the input changes beside the rig's own approach".to_string()]
                 } else if confounded == Some(i) {
                     vec![format!("not named: this log's order ties session time to the inputs ({:.0} % of the visits' times follow from z_m and f), and a smooth surface over (z_m, f) leaves it no gain beyond its null", 100.0 * tied)]
                 } else {
