@@ -75,31 +75,48 @@ pub struct Detection {
     pub alts: Vec<Alt>,
     /// Family p-values (min-p over the alternatives, calibrated by the simulations).
     pub family_p: Vec<(&'static str, f64)>,
-    /// The gap's p-value: the tests' min-p over every alternative, calibrated by the
-    /// simulations ([`Detection::tests_p`]), or, once a round of selection has judged the
-    /// candidates on the same simulations, the smaller of the tests' smallest p and the named
-    /// candidate's, each adjusted over the tests and the candidates together
-    /// (`attribute`'s gate).
-    pub p_value: f64,
-    /// Significant at alpha.
-    pub significant: bool,
-    /// The tests' own min-p over every alternative.
+    /// The tests' own min-p over every alternative, calibrated by the simulations.
     pub tests_p: f64,
     /// Each simulated log's smallest p over the alternatives, read as the real log's are
     /// (`noise::replicate_ps`), by replicate number (NaN where a replicate could not be
     /// evaluated): the candidates of a round, scored on the same simulated logs, join them in
     /// one min-p.
     pub rep_min: Vec<f64>,
-    /// The tests' smallest p adjusted over the tests and the round's candidates together
-    /// (the tests' own min-p until a round has judged them together).
-    pub gate_tests_p: f64,
-    /// The candidate whose gain, adjusted over the tests and the candidates together, opened
-    /// the gate when the tests alone did not, with its adjusted p-value.
-    pub opened_by: Option<(String, f64)>,
     /// Families significant after the correction.
     pub families: Vec<&'static str>,
     /// Visit noise of the current residual, per axis \[mm\].
     pub visit_sd: [f64; 2],
+}
+
+/// Whether a round finds a gap to attribute: the gap tests alone, or, in a round of selection
+/// that judged candidates on the same simulated logs, the tests and the named candidate
+/// priced together (`attribute`'s gate). Kept apart from [`Detection`], which holds what the
+/// tests measured.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// The gap's p-value: the tests' min-p, or the smaller of the tests' smallest p and the
+    /// named candidate's, each adjusted over the tests and the candidates together.
+    pub p_value: f64,
+    /// Significant at alpha.
+    pub significant: bool,
+    /// The tests' smallest p adjusted over the tests and the round's candidates together
+    /// (the tests' own min-p where no candidates were judged with them).
+    pub tests_p: f64,
+    /// The candidate whose gain, adjusted over the tests and the candidates together, opened
+    /// the gate when the tests alone did not, with its adjusted p-value.
+    pub opened_by: Option<(String, f64)>,
+}
+
+impl Verdict {
+    /// The tests' own verdict at `alpha`.
+    pub fn of_tests(det: &Detection, alpha: f64) -> Verdict {
+        Verdict {
+            p_value: det.tests_p,
+            significant: noise::rejects(det.tests_p, alpha),
+            tests_p: det.tests_p,
+            opened_by: None,
+        }
+    }
 }
 
 impl Detection {
@@ -555,12 +572,8 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     Some(Detection {
         alts: out_alts,
         family_p,
-        p_value,
-        significant: noise::rejects(p_value, alpha),
         tests_p: p_value,
         rep_min,
-        gate_tests_p: p_value,
-        opened_by: None,
         families,
         visit_sd: sd,
     })

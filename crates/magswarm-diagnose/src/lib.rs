@@ -363,11 +363,12 @@ pub fn diagnose_with_progress(
         k,
     );
     pb.stage("gap tests");
-    let to_tests = |det: &detect::Detection, r: &[[f64; 2]]| -> gap::GapTests {
-        let old = gap::tests(&ds, r, &pe, &base_map, n_free, cfg.alpha, 0, cfg.seed);
-        gap::GapTests::from_detection(old, det)
-    };
-    let mut det0 = detect::detect(
+    let to_tests =
+        |det: &detect::Detection, verdict: &detect::Verdict, r: &[[f64; 2]]| -> gap::GapTests {
+            let old = gap::tests(&ds, r, &pe, &base_map, n_free, cfg.alpha, 0, cfg.seed);
+            gap::GapTests::from_detection(old, det, verdict)
+        };
+    let det0 = detect::detect(
         &detect::Setting {
             ds: &ds,
             rc: &lin.rc,
@@ -387,7 +388,7 @@ pub fn diagnose_with_progress(
     let mut attr = attribute::attribute(
         &lin,
         &fold_of_visit,
-        &mut det0,
+        &det0,
         attribute::Settings {
             folds: cfg.folds,
             alpha: cfg.alpha,
@@ -397,7 +398,7 @@ pub fn diagnose_with_progress(
         },
         pb,
     );
-    let tests = to_tests(&det0, &res);
+    let tests = to_tests(&det0, &attr.verdict, &res);
     let regions = if tests.significant {
         gap::localise(&ds, &res, &base_map, &tests)
     } else {
@@ -432,8 +433,8 @@ pub fn diagnose_with_progress(
         regions.clone()
     } else {
         match attr.rounds.last() {
-            Some(det) if det.significant => {
-                let t = to_tests(det, &res_aug);
+            Some(r) if r.verdict.significant => {
+                let t = to_tests(&r.detection, &r.verdict, &res_aug);
                 gap::localise(&ds, &res_aug, &base_map, &t)
             }
             _ => Vec::new(),

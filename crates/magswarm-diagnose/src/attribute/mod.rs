@@ -198,15 +198,34 @@ pub struct Attribution {
     pub ambiguous: Vec<(String, String)>,
     /// Fold of each visit.
     pub fold_of_visit: Vec<usize>,
-    /// The gap tests after each accepted effect.
-    pub rounds: Vec<detect::Detection>,
+    /// The verdict on the baseline: the caller's gap tests, with the first round's candidates
+    /// priced in where that round judged them.
+    pub verdict: detect::Verdict,
+    /// The gap tests after each accepted effect, and their verdicts.
+    pub rounds: Vec<Round>,
     /// The local anomaly beat every effect in the last round: the gap left is unexplained.
     pub anomaly_won: bool,
     /// The local anomaly's score in the last round: (gain, null quantile, p-value).
     pub anomaly: Option<(f64, f64, f64)>,
 }
 
+/// A round of selection after the first: what the gap tests measured on the current design,
+/// and whether they found a gap left.
+#[derive(Debug, Clone)]
+pub struct Round {
+    /// The gap tests.
+    pub detection: detect::Detection,
+    /// Their verdict.
+    pub verdict: detect::Verdict,
+}
+
 impl Attribution {
+    /// A round that the tests alone judged (no candidates priced with them).
+    fn push_round(&mut self, detection: detect::Detection, alpha: f64) {
+        let verdict = detect::Verdict::of_tests(&detection, alpha);
+        self.rounds.push(Round { detection, verdict });
+    }
+
     /// The augmented model as written (`augmented.json`) and predicted on a withheld log, or
     /// None when nothing was named: then the augmented model *is* the baseline (identify's
     /// model, `baseline.json`), not the attribution's linear refit of it, which can predict
@@ -241,12 +260,12 @@ fn setting<'b>(lin: &'b Linear, d: &'b Design, st: &Settings) -> Setting<'b> {
     }
 }
 
-/// Run the attribution. `first` is the gap tests' result on the baseline; it comes back
-/// with the round's gate (`Detection::p_value`, `significant`, `opened_by`).
+/// Run the attribution. `first` is the gap tests' result on the baseline; the first round's
+/// gate is [`Attribution::verdict`].
 pub fn attribute(
     lin: &Linear,
     fold_of_visit: &[usize],
-    first: &mut detect::Detection,
+    first: &detect::Detection,
     st: Settings,
     progress: &dyn Progress,
 ) -> Attribution {
@@ -277,6 +296,7 @@ pub fn attribute(
         evals: Vec::new(),
         ambiguous: Vec::new(),
         fold_of_visit: fold_of_visit.to_vec(),
+        verdict: detect::Verdict::of_tests(first, st.alpha),
         rounds: Vec::new(),
         anomaly_won: false,
         anomaly: None,
@@ -299,7 +319,7 @@ pub fn attribute(
         rounds_run += 1;
         let round = rounds_run;
         // The round's gap tests: on the baseline, the caller's; later on the current design.
-        let mut det = if round == 1 {
+        let det = if round == 1 {
             first.clone()
         } else {
             match detect::detect(&setting(lin, &cur, &st), st.alpha) {
@@ -311,17 +331,15 @@ pub fn attribute(
         // over the candidates too is never below their own min-p: where that does not reach
         // alpha the round's candidates need not be scored (the most costly step).
         if round > 1 && !noise::rejects(det.tests_p, st.alpha) {
-            out.rounds.push(det);
+            out.push_round(det, st.alpha);
             break;
         }
         // Effects not named yet, and the named ones again: what a named effect's shape leaves
         // of its own structure is more of the same effect (a refinement), not a new one.
         let todo: Vec<(Cand, Vec<Variant>)> = cands.clone();
         let Some(scored) = score_round(lin, &cur, &todo, &st) else {
-            if round == 1 {
-                *first = det;
-            } else {
-                out.rounds.push(det);
+            if round > 1 {
+                out.push_round(det, st.alpha);
             }
             break;
         };
@@ -498,18 +516,23 @@ pub fn attribute(
             gate.tests,
             gate.candidate
         );
-        det.gate_tests_p = gate.tests;
-        det.p_value = gate.p();
-        det.significant = noise::rejects(det.p_value, st.alpha);
-        det.opened_by = gate
-            .candidate
-            .filter(|&q| !noise::rejects(gate.tests, st.alpha) && noise::rejects(q, st.alpha))
-            .and_then(|q| best.map(|b| (scored[b].name.name().to_string(), q)));
-        let open = det.significant;
+        let verdict = detect::Verdict {
+            p_value: gate.p(),
+            significant: noise::rejects(gate.p(), st.alpha),
+            tests_p: gate.tests,
+            opened_by: gate
+                .candidate
+                .filter(|&q| !noise::rejects(gate.tests, st.alpha) && noise::rejects(q, st.alpha))
+                .and_then(|q| best.map(|b| (scored[b].name.name().to_string(), q))),
+        };
+        let open = verdict.significant;
         if round == 1 {
-            *first = det;
+            out.verdict = verdict;
         } else {
-            out.rounds.push(det);
+            out.rounds.push(Round {
+                detection: det,
+                verdict,
+            });
         }
         let closed = (!open).then_some(gate.p());
         if closed.is_some() {
@@ -623,20 +646,25 @@ pub fn attribute(
     // (no form of it gains on withheld visits), and nothing else named, the gap is the tests'
     // alone to declare.
     if out.accepted.is_empty() {
-        if let Some((name, _)) = first.opened_by.take() {
+        let v = &mut out.verdict;
+        if let Some((name, _)) = v.opened_by.take() {
             log::info!("the gap was found by {name}, which was then dropped: the gate falls back to the tests alone");
-            first.p_value = first.gate_tests_p;
-            first.significant = noise::rejects(first.p_value, st.alpha);
+            v.p_value = v.tests_p;
+            v.significant = noise::rejects(v.p_value, st.alpha);
         }
     }
     let aug = never_worse(lin, aug);
     // Detection on what the final model leaves (the closing round).
     if out.rounds.len() < named.len() {
         if let Some(d) = detect::detect(&setting(lin, &design, &st), st.alpha) {
-            out.rounds.push(d);
+            out.push_round(d, st.alpha);
         }
     }
-    let left_significant = out.rounds.last().map(|d| d.significant).unwrap_or(false);
+    let left_significant = out
+        .rounds
+        .last()
+        .map(|r| r.verdict.significant)
+        .unwrap_or(false);
     let names = out.accepted.clone();
     let mut ev = eval_of(&lin.model_design(&learned), names, aug.clone());
     // In-sample predictions through the model itself (what `predict` and the FMU replay).
@@ -915,12 +943,8 @@ mod tests {
                     })
                     .collect(),
                 family_p: Vec::new(),
-                p_value: tests_p,
-                significant: false,
                 tests_p,
                 rep_min,
-                gate_tests_p: tests_p,
-                opened_by: None,
                 families: Vec::new(),
                 visit_sd: [1.0, 1.0],
             };

@@ -329,8 +329,13 @@ pub fn formation_contrasts(
 
 impl GapTests {
     /// The family tests as the bootstrap-calibrated detection decides them
-    /// ([`super::detect`]); the lack-of-fit F test of `old` is kept for the report.
-    pub fn from_detection(old: GapTests, det: &super::detect::Detection) -> GapTests {
+    /// ([`super::detect`]), the gap as `verdict` declares it; the lack-of-fit F test of `old`
+    /// is kept for the report.
+    pub fn from_detection(
+        old: GapTests,
+        det: &super::detect::Detection,
+        verdict: &super::detect::Verdict,
+    ) -> GapTests {
         let fam = |n: &str| {
             det.family_p
                 .iter()
@@ -342,8 +347,8 @@ impl GapTests {
             space_p: [fam("inputs"); 2],
             drift_p: [fam("drift"); 2],
             trans_p: [fam("formation"); 2],
-            p_value: det.p_value,
-            significant: det.significant,
+            p_value: verdict.p_value,
+            significant: verdict.significant,
             families: det.families.clone(),
             visit_sd: det.visit_sd,
             ..old

@@ -34,7 +34,7 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             "**Significant gap** (combined p = {:.3e} <= alpha = {}; {}).\n",
             Pv(gt.p_value),
             d.cfg.alpha,
-            match &d.detection.opened_by {
+            match &d.attr.verdict.opened_by {
                 Some((e, q)) => format!(
                     "found by the candidate `{e}`: its withheld gain, adjusted over every gap test and candidate, p = {:.2e}, where the gap tests' own smallest p, adjusted the same way, did not reach alpha (the tests alone: min-p = {:.2e}){}",
                     Pv(*q),
@@ -45,7 +45,14 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
             }
         );
         if d.attr.accepted.is_empty() {
-            let _ = writeln!(w, "{}: the gap is reported as **unexplained** rather than given a name the data do not support.\n", if d.attr.anomaly_won { "A local anomaly (a small box of operating points that no effect describes) explains it better than any effect" } else { if d.attr.evals.iter().any(|e| e.passed) { "No candidate effect is named (those beyond their null were passed over or dropped: the candidate table's notes say why)" } else { "No candidate effect lies beyond its null" } });
+            let why = if d.attr.anomaly_won {
+                "A local anomaly (a small box of operating points that no effect describes) explains it better than any effect"
+            } else if d.attr.evals.iter().any(|e| e.passed) {
+                "No candidate effect is named (those beyond their null were passed over or dropped: the candidate table's notes say why)"
+            } else {
+                "No candidate effect lies beyond its null"
+            };
+            let _ = writeln!(w, "{why}: the gap is reported as **unexplained** rather than given a name the data do not support.\n");
         } else {
             let _ = writeln!(
                 w,

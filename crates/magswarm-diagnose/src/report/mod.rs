@@ -157,7 +157,7 @@ pub fn json(d: &Diagnosis) -> Value {
             "alpha": d.cfg.alpha,
             "families": gt.families,
             "tests_p_value": d.detection.tests_p,
-            "opened_by": d.detection.opened_by.as_ref().map(|(e, p)| json!({"effect": e, "p_value": p})),
+            "opened_by": d.attr.verdict.opened_by.as_ref().map(|(e, p)| json!({"effect": e, "p_value": p})),
             "tests": {
                 "lack_of_fit": {
                     "F": [gt.lof[0].f, gt.lof[1].f],
@@ -178,9 +178,9 @@ pub fn json(d: &Diagnosis) -> Value {
                     })).collect::<Vec<_>>(),
                     "family_p_value": d.detection.family_p.iter().map(|(f, p)| (f.to_string(), json!(p))).collect::<serde_json::Map<_, _>>(),
                     "after_each_effect": d.attr.rounds.iter().map(|r| json!({
-                        "p_value": r.p_value, "significant": r.significant, "families": r.families,
-                        "tests_p_value": r.tests_p,
-                        "opened_by": r.opened_by.as_ref().map(|(e, p)| json!({"effect": e, "p_value": p})),
+                        "p_value": r.verdict.p_value, "significant": r.verdict.significant, "families": r.detection.families,
+                        "tests_p_value": r.detection.tests_p,
+                        "opened_by": r.verdict.opened_by.as_ref().map(|(e, p)| json!({"effect": e, "p_value": p})),
                     })).collect::<Vec<_>>(),
                 },
             },
