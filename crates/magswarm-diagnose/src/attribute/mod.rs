@@ -32,8 +32,8 @@
 //! spread thin (a rate-limited formation) still opens the gate.
 //!
 //! Forward selection: the named effect joins the design, the gap tests run again on what is
-//! left (their smallest p adjusted over the next round's candidates too), and selection
-//! continues while they find a gap.
+//! left (at their own min-p: the candidates' route is closed after the baseline, so no price
+//! for it is owed), and selection continues while they find a gap.
 //!
 //! Then each named effect's **form** is chosen: its library (parametric) form, fitted by the
 //! nonlinear fitter, is used where it does as well on withheld visits as the learned shape (at
@@ -327,9 +327,9 @@ pub fn attribute(
                 None => break,
             }
         };
-        // After a named effect only the tests open the gate, and their smallest p adjusted
-        // over the candidates too is never below their own min-p: where that does not reach
-        // alpha the round's candidates need not be scored (the most costly step).
+        // After a named effect only the tests open the gate, at their own min-p: where that
+        // does not reach alpha the round's candidates need not be scored (the most costly
+        // step).
         if round > 1 && !noise::rejects(det.tests_p, st.alpha) {
             out.push_round(det, st.alpha);
             break;
@@ -507,9 +507,16 @@ pub fn attribute(
         // nulls (a transient judged within the visits) while the tests' shapes spread it: on
         // the project's benchmark, later rounds that a candidate opened named a false
         // `formation_lag` beside a right cohesion loss twice, and once on the second
-        // generator beside a phase lag. There the tests alone open the gate, their smallest
-        // p still paid over the candidates too.
-        let gate = gate(&det, &scored, best.filter(|_| round == 1));
+        // generator beside a phase lag. There the tests alone open the gate, at their own
+        // min-p: with the candidates' route closed, no price for it is owed.
+        let gate = if round == 1 {
+            gate(&det, &scored, best)
+        } else {
+            Gate {
+                tests: det.tests_p,
+                candidate: None,
+            }
+        };
         log::debug!(
             "round {round}: tests' p {:.3e} (joint {:.3e}), named candidate's joint p {:?}",
             det.tests_p,
