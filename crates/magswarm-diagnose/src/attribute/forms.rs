@@ -135,9 +135,26 @@ pub(super) fn choose_forms(
             "{}: withheld gain of the library form {g_param:.1}, of the learned shape {g_learned_model:.1} (model directions) / {g_learned:.1}",
             name.name()
         );
-        // The library form where it gains at least 90 % of what the learned shape gains.
-        let use_learned =
-            is_shape && g_learned_model.is_finite() && g_param < 0.9 * g_learned_model;
+        // The library form where it gains at least 90 % of what the learned shape gains, and
+        // where its fit is a plausible description of the effect: a fit the form's own
+        // physics rules out (a formation mode slower than every visit, an onset outside the
+        // data) gains on withheld visits of this session by standing in for something else,
+        // and replays wrongly on a log with other visits; the learned shape, tabulated where
+        // the data lie, is written instead when it gains by itself.
+        let lib_implausible = name.implausible(&fr.aug.synced(), lin.ctx);
+        let learned_ok = is_shape && g_learned_model.is_finite();
+        let lib_as_good = g_param >= 0.9 * g_learned_model;
+        // Set aside for its implausible fit alone (it gains as much as the learned shape).
+        let set_aside =
+            learned_ok && lib_as_good && g_learned >= MIN_GAIN && !lib_implausible.is_empty();
+        let use_learned = learned_ok && (!lib_as_good || set_aside);
+        if set_aside {
+            log::debug!(
+                "{}: library form not used ({}): the learned shape is written",
+                name.name(),
+                lib_implausible.join("; ")
+            );
+        }
         let learned_pred = shape_design
             .as_ref()
             .filter(|_| is_shape)
@@ -182,6 +199,12 @@ pub(super) fn choose_forms(
             model_d = shape_model_d.expect("shape design");
             if let Some(e) = e {
                 e.form_gains = Some((g_param, g_learned_model));
+                if set_aside {
+                    e.notes.push(format!(
+                        "learned shape written: its library form's fit is implausible ({})",
+                        lib_implausible.join("; ")
+                    ));
+                }
             }
         } else {
             parametric.push(*name);
