@@ -141,18 +141,18 @@ pub(super) fn choose_forms(
         // data) gains on withheld visits of this session by standing in for something else,
         // and replays wrongly on a log with other visits; the learned shape, tabulated where
         // the data lie, is written instead when it gains by itself.
-        let lib_implausible = name.implausible(&fr.aug.synced(), lin.ctx);
         let learned_ok = is_shape && g_learned_model.is_finite();
         let lib_as_good = g_param >= 0.9 * g_learned_model;
-        // Set aside for its implausible fit alone (it gains as much as the learned shape).
-        let set_aside =
-            learned_ok && lib_as_good && g_learned >= MIN_GAIN && !lib_implausible.is_empty();
-        let use_learned = learned_ok && (!lib_as_good || set_aside);
-        if set_aside {
+        // Why the library form is set aside for its implausible fit alone (it gains as much
+        // as the learned shape, which gains by itself); None where it is not.
+        let set_aside = (learned_ok && lib_as_good && g_learned >= MIN_GAIN)
+            .then(|| name.implausible(&fr.aug.synced(), lin.ctx).join("; "))
+            .filter(|why| !why.is_empty());
+        let use_learned = learned_ok && (!lib_as_good || set_aside.is_some());
+        if let Some(why) = &set_aside {
             log::debug!(
-                "{}: library form not used ({}): the learned shape is written",
-                name.name(),
-                lib_implausible.join("; ")
+                "{}: library form not used ({why}): the learned shape is written",
+                name.name()
             );
         }
         let learned_pred = shape_design
@@ -199,10 +199,9 @@ pub(super) fn choose_forms(
             model_d = shape_model_d.expect("shape design");
             if let Some(e) = e {
                 e.form_gains = Some((g_param, g_learned_model));
-                if set_aside {
+                if let Some(why) = set_aside {
                     e.notes.push(format!(
-                        "learned shape written: its library form's fit is implausible ({})",
-                        lib_implausible.join("; ")
+                        "learned shape written: its library form's fit is implausible ({why})"
                     ));
                 }
             }

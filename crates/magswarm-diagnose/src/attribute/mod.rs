@@ -512,10 +512,7 @@ pub fn attribute(
         let gate = if round == 1 {
             gate(&det, &scored, best)
         } else {
-            Gate {
-                tests: det.tests_p,
-                candidate: None,
-            }
+            Gate::of_tests(&det)
         };
         log::debug!(
             "round {round}: tests' p {:.3e} (joint {:.3e}), named candidate's joint p {:?}",
@@ -704,6 +701,14 @@ struct Gate {
 }
 
 impl Gate {
+    /// The tests alone, at their own min-p (no candidate route, so no price paid for one).
+    fn of_tests(det: &detect::Detection) -> Gate {
+        Gate {
+            tests: det.tests_p,
+            candidate: None,
+        }
+    }
+
     /// The gap's p-value: the smaller of the two.
     fn p(&self) -> f64 {
         self.candidate.map_or(self.tests, |c| c.min(self.tests))
