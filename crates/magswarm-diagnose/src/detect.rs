@@ -476,53 +476,92 @@ pub fn detect(st: &Setting, alpha: f64) -> Option<Detection> {
     // The statistics of one (real or simulated) weighted residual, and the visit noise each
     // design's fit leaves (index 0: the current design's). `real` holds the real log's
     // noises: a simulated log's drops are studentised relative to them.
-    let stats_of =
-        |y: &DVector<f64>, real: Option<&[[f64; 2]]>| -> Option<(Vec<f64>, Vec<[f64; 2]>)> {
-            let e0 = base.residual(y);
-            let r0 = unweight(&e0, w);
-            let sd0 = rough.visit_sd(&r0).ok()?;
-            let s0 = linear::sse_axes(&e0);
-            let s0w = linear::sse_axes(&base_w.residual(y));
-            let mut sds = Vec::with_capacity(solvers.len() + 1);
-            sds.push(sd0);
-            let mut drops: Vec<[f64; 2]> = Vec::with_capacity(solvers.len());
-            for (j, (s, scale)) in solvers.iter().zip(&scales).enumerate() {
-                let e1 = s.residual(y);
-                let s1 = linear::sse_axes(&e1);
-                let (sd, idx) = match scale {
-                    Scale::Own if transient[j] => (rough_mad.visit_sd_stacked(&e1, w).ok()?, j + 1),
-                    Scale::Own => (rough.visit_sd_stacked(&e1, w).ok()?, j + 1),
-                    Scale::Current | Scale::None => (sd0, 0),
-                };
-                sds.push(sd);
-                let rho = match (real, scale) {
-                    (_, Scale::None) | (None, _) => [1.0, 1.0],
-                    (Some(r), _) => [(sd[0] / r[idx][0]).powi(2), (sd[1] / r[idx][1]).powi(2)],
-                };
-                let s0 = if *scale == Scale::None { s0w } else { s0 };
-                drops.push([(s0[0] - s1[0]) / rho[0], (s0[1] - s1[1]) / rho[1]]);
-            }
-            let out = alts
-                .iter()
-                .map(|(_, _, k, a)| match (k, a) {
-                    (Kind::Design(i), Some(a)) => drops[*i][*a],
-                    (Kind::Design(i), None) => drops[*i][0] + drops[*i][1],
-                    (Kind::Box { boxes, joint }, _) => box_scan(ds, &r0, sd0, *boxes, *joint).0,
-                })
-                .collect();
-            Some((out, sds))
+    // The residuals of one log: the current design's, its within-visit version's, and each
+    // alternative's (in `solvers`' order).
+    struct Fits {
+        e0: DVector<f64>,
+        ew: DVector<f64>,
+        e1: Vec<DVector<f64>>,
+    }
+    let fits_of = |y: &DVector<f64>| Fits {
+        e0: base.residual(y),
+        ew: base_w.residual(y),
+        e1: solvers.iter().map(|s| s.residual(y)).collect(),
+    };
+    // Simulated logs a batch at a time: the products with the tall design become matrix
+    // products (most of a long log's diagnosis), each column what `fits_of` gives.
+    let batch_fits = |ys: &[DVector<f64>]| -> Vec<Fits> {
+        let ym = DMatrix::from_columns(ys);
+        let cols = |m: DMatrix<f64>| -> Vec<DVector<f64>> {
+            (0..m.ncols()).map(|j| m.column(j).into_owned()).collect()
         };
-    let (obs, real_sds) = stats_of(st.y, None)?;
+        let mut e0 = cols(base.residual_batch(&ym)).into_iter();
+        let mut ew = cols(base_w.residual_batch(&ym)).into_iter();
+        let mut e1: Vec<_> = solvers
+            .iter()
+            .map(|s| cols(s.residual_batch(&ym)).into_iter())
+            .collect();
+        (0..ys.len())
+            .filter_map(|_| {
+                Some(Fits {
+                    e0: e0.next()?,
+                    ew: ew.next()?,
+                    e1: e1.iter_mut().map(|c| c.next()).collect::<Option<_>>()?,
+                })
+            })
+            .collect()
+    };
+    let stats_of = |fits: &Fits, real: Option<&[[f64; 2]]>| -> Option<(Vec<f64>, Vec<[f64; 2]>)> {
+        let e0 = &fits.e0;
+        let r0 = unweight(e0, w);
+        let sd0 = rough.visit_sd(&r0).ok()?;
+        let s0 = linear::sse_axes(e0);
+        let s0w = linear::sse_axes(&fits.ew);
+        let mut sds = Vec::with_capacity(solvers.len() + 1);
+        sds.push(sd0);
+        let mut drops: Vec<[f64; 2]> = Vec::with_capacity(solvers.len());
+        for (j, (e1, scale)) in fits.e1.iter().zip(&scales).enumerate() {
+            let s1 = linear::sse_axes(e1);
+            let (sd, idx) = match scale {
+                Scale::Own if transient[j] => (rough_mad.visit_sd_stacked(e1, w).ok()?, j + 1),
+                Scale::Own => (rough.visit_sd_stacked(e1, w).ok()?, j + 1),
+                Scale::Current | Scale::None => (sd0, 0),
+            };
+            sds.push(sd);
+            let rho = match (real, scale) {
+                (_, Scale::None) | (None, _) => [1.0, 1.0],
+                (Some(r), _) => [(sd[0] / r[idx][0]).powi(2), (sd[1] / r[idx][1]).powi(2)],
+            };
+            let s0 = if *scale == Scale::None { s0w } else { s0 };
+            drops.push([(s0[0] - s1[0]) / rho[0], (s0[1] - s1[1]) / rho[1]]);
+        }
+        let out = alts
+            .iter()
+            .map(|(_, _, k, a)| match (k, a) {
+                (Kind::Design(i), Some(a)) => drops[*i][*a],
+                (Kind::Design(i), None) => drops[*i][0] + drops[*i][1],
+                (Kind::Box { boxes, joint }, _) => box_scan(ds, &r0, sd0, *boxes, *joint).0,
+            })
+            .collect();
+        Some((out, sds))
+    };
+    let (obs, real_sds) = stats_of(&fits_of(st.y), None)?;
     let sd = real_sds[0];
     // By replicate number: the candidates of a round are scored on the same simulated logs
     // (`attribute`), and a joint min-p pairs them replicate by replicate.
-    let by_rep: Vec<Option<Vec<f64>>> = (0..st.boot)
+    let chunks: Vec<Vec<Option<Vec<f64>>>> = (0..st.boot.div_ceil(linear::BATCH))
         .into_par_iter()
-        .map(|b| {
-            let y = noise::simulate(ds, st.noise, w, st.seed, b);
-            stats_of(&y, Some(&real_sds)).map(|x| x.0)
+        .map(|c| {
+            let ys: Vec<DVector<f64>> = (c * linear::BATCH..((c + 1) * linear::BATCH).min(st.boot))
+                .map(|b| noise::simulate(ds, st.noise, w, st.seed, b))
+                .collect();
+            batch_fits(&ys)
+                .iter()
+                .map(|f| stats_of(f, Some(&real_sds)).map(|x| x.0))
+                .collect()
         })
         .collect();
+    let by_rep: Vec<Option<Vec<f64>>> = chunks.into_iter().flatten().collect();
     let null: Vec<&Vec<f64>> = by_rep.iter().flatten().collect();
     let mut out_alts = Vec::new();
     for (j, (fam, name, _, _)) in alts.iter().enumerate() {

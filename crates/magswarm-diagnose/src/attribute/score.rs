@@ -7,8 +7,22 @@ use super::*;
 /// over `cur` on the weighted residual `y`.
 pub(super) fn gain(cur: &Solver, cand: &Solver, y: &DVector<f64>, rho: [f64; 2]) -> f64 {
     let s0 = linear::sse_axes(&cur.cv_residual(y));
-    let s1 = linear::sse_axes(&cand.cv_residual(y));
+    gain_over(s0, linear::sse_axes(&cand.cv_residual(y)), rho)
+}
+
+/// [`gain`] from the current design's withheld sums of squares `s0` (the same for every
+/// variant of a log) and the candidate's, `s1`.
+fn gain_over(s0: [f64; 2], s1: [f64; 2], rho: [f64; 2]) -> f64 {
     0.5 * ((s0[0] - s1[0]) / rho[0] + (s0[1] - s1[1]) / rho[1])
+}
+
+/// `f` of every fixed variant's solver, per candidate and variant (None where a variant has
+/// no solver).
+fn map_fixed<T>(fixed: &[Vec<Option<Solver>>], f: impl Fn(&Solver) -> T) -> Vec<Vec<Option<T>>> {
+    fixed
+        .iter()
+        .map(|vs| vs.iter().map(|s| s.as_ref().map(&f)).collect())
+        .collect()
 }
 
 /// Quantile of a sample.
@@ -108,53 +122,153 @@ pub(super) fn score_round(
     // `real` holds the real log's noises per candidate and variant: a simulated log's gains
     // are studentised relative to them.
     type Noises = Vec<Vec<[f64; 2]>>;
-    let gains_of = |y: &DVector<f64>, real: Option<&Noises>| -> Option<(Vec<Vec<f64>>, Noises)> {
-        let e0 = cur_in.residual(y);
+    // What the variants fixed in advance leave of one log: the visit noise of the full fit
+    // (None where too few pairs of visits read it) and the withheld sums of squares, per
+    // candidate and variant (None: no solver for that variant).
+    type FixedFits = Vec<Vec<Option<(Option<[f64; 2]>, [f64; 2])>>>;
+    // One log (real or simulated): its weighted residual, the current design's in-sample
+    // residual and withheld sums of squares (and as the shapes within the visits see it),
+    // and the fixed variants' fits.
+    struct LogFit {
+        y: DVector<f64>,
+        e0: DVector<f64>,
+        s0: [f64; 2],
+        s0w: Option<[f64; 2]>,
+        fixed: FixedFits,
+    }
+    // The real log, one product at a time.
+    let log_fit = |y: DVector<f64>| -> LogFit {
+        let fixed: FixedFits = map_fixed(&fixed, |s| {
+            let (r, cv) = s.fits(&y);
+            (
+                rough.visit_sd_stacked(&r, lin.rc.w).ok(),
+                linear::sse_axes(&cv),
+            )
+        });
+        LogFit {
+            e0: cur_in.residual(&y),
+            s0: linear::sse_axes(&cur_s.cv_residual(&y)),
+            s0w: cur_ws
+                .as_ref()
+                .map(|w| linear::sse_axes(&w.cv_residual(&y))),
+            fixed,
+            y,
+        }
+    };
+    // Simulated logs, a batch at a time: the products with the tall design become matrix
+    // products (the bulk of a long log's diagnosis), each column what `log_fit` gives.
+    let batch_fits = |ys: Vec<DVector<f64>>| -> Vec<LogFit> {
+        let ym = DMatrix::from_columns(&ys);
+        let cols = |m: &DMatrix<f64>| -> Vec<DVector<f64>> {
+            (0..m.ncols()).map(|j| m.column(j).into_owned()).collect()
+        };
+        let sse_cols = |m: &DMatrix<f64>| -> Vec<[f64; 2]> {
+            (0..m.ncols())
+                .map(|j| linear::sse_axes_of(m.column(j).iter()))
+                .collect()
+        };
+        let e0 = cols(&cur_in.residual_batch(&ym));
+        let s0 = sse_cols(&cur_s.fits_batch(&ym).1);
+        let s0w: Vec<Option<[f64; 2]>> = match &cur_ws {
+            Some(w) => sse_cols(&w.fits_batch(&ym).1)
+                .into_iter()
+                .map(Some)
+                .collect(),
+            None => vec![None; ys.len()],
+        };
+        // Per candidate and variant, each log's (visit noise, withheld sums of squares).
+        type Fits = Vec<(Option<[f64; 2]>, [f64; 2])>;
+        let per: Vec<Vec<Option<Fits>>> = map_fixed(&fixed, |s| {
+            let (r, cv) = s.fits_batch(&ym);
+            (0..ym.ncols())
+                .map(|j| {
+                    let rj = r.column(j).into_owned();
+                    (
+                        rough.visit_sd_stacked(&rj, lin.rc.w).ok(),
+                        linear::sse_axes_of(cv.column(j).iter()),
+                    )
+                })
+                .collect()
+        });
+        ys.into_iter()
+            .enumerate()
+            .map(|(j, y)| LogFit {
+                fixed: per
+                    .iter()
+                    .map(|vs| vs.iter().map(|f| f.as_ref().map(|f| f[j])).collect())
+                    .collect(),
+                e0: e0[j].clone(),
+                s0: s0[j],
+                s0w: s0w[j],
+                y,
+            })
+            .collect()
+    };
+    // Gains of every candidate (best variant) on one weighted residual, each variant's
+    // studentised by the visit noise its own fit leaves (an F-type ratio: a structure that
+    // inflates the current residual's visit noise, a drift that makes repeat visits at other
+    // times differ, is judged against the noise left once it is fitted), and those noises.
+    // `real` holds the real log's noises per candidate and variant: a simulated log's gains
+    // are studentised relative to them.
+    let gains_of = |lf: &LogFit, real: Option<&Noises>| -> Option<(Vec<Vec<f64>>, Noises)> {
+        let (y, e0, s0, s0w) = (&lf.y, &lf.e0, lf.s0, lf.s0w);
         let mut out = Vec::with_capacity(cands.len());
         let mut sds: Noises = Vec::with_capacity(cands.len());
         for (ci, (_, vs)) in cands.iter().enumerate() {
             let mut gs = Vec::with_capacity(vs.len());
             let mut sd_c = Vec::with_capacity(vs.len());
             for (vi, v) in vs.iter().enumerate() {
-                let found;
-                let solver = match v {
-                    Variant::Anomaly => {
-                        let (c, p) = anomaly_columns(lin, &e0);
-                        found = Solver::new(&cur.extend(&c, &p), &lin.fold_of_stacked, lin.k);
-                        found.as_ref()
-                    }
-                    Variant::Band => {
-                        found = band_family(lin, &e0).and_then(|f| {
-                            Solver::new(
-                                &cur.append(&shapes::design(&f, &lin.rc)),
-                                &lin.fold_of_stacked,
-                                lin.k,
-                            )
-                        });
-                        found.as_ref()
-                    }
-                    _ => fixed[ci][vi].as_ref(),
+                // The variants found on each log (a box, a band) are fitted here; the fixed
+                // ones were fitted with the log.
+                let solver = if real.is_none() {
+                    Solver::new
+                } else {
+                    Solver::for_simulated
                 };
-                let Some(s) = solver else {
+                let found = match v {
+                    Variant::Anomaly => {
+                        let (c, p) = anomaly_columns(lin, e0);
+                        Some(solver(&cur.extend(&c, &p), &lin.fold_of_stacked, lin.k))
+                    }
+                    Variant::Band => Some(band_family(lin, e0).and_then(|f| {
+                        solver(
+                            &cur.append(&shapes::design(&f, &lin.rc)),
+                            &lin.fold_of_stacked,
+                            lin.k,
+                        )
+                    })),
+                    _ => None,
+                };
+                let fit = match found {
+                    Some(s) => s.map(|s| {
+                        let (r, cv) = s.fits(y);
+                        (
+                            rough.visit_sd_stacked(&r, lin.rc.w).ok(),
+                            linear::sse_axes(&cv),
+                        )
+                    }),
+                    None => lf.fixed[ci][vi],
+                };
+                let Some((sd, s1)) = fit else {
                     sd_c.push([1.0, 1.0]);
                     gs.push(f64::NEG_INFINITY);
                     continue;
                 };
-                let sd = rough.visit_sd_stacked(&s.residual(y), lin.rc.w).ok()?;
+                let sd = sd?;
                 sd_c.push(sd);
                 // A shape within the visits is blind to their noise: its gain is a
                 // log-likelihood in units of the noise of a row about its visit's mean
                 // (the weighted residual's unit is a row's whole noise, visit offset
                 // included), against the current design as it varies within them.
-                let (rho, from) = match (real, &cur_ws) {
+                let (rho, from) = match (real, s0w) {
                     (_, Some(w)) if within(v) => (rho_within, w),
                     (Some(r), _) => {
                         let r = r[ci][vi];
-                        ([(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)], &cur_s)
+                        ([(sd[0] / r[0]).powi(2), (sd[1] / r[1]).powi(2)], s0)
                     }
-                    (None, _) => ([1.0, 1.0], &cur_s),
+                    (None, _) => ([1.0, 1.0], s0),
                 };
-                let g = gain(from, s, y, rho);
+                let g = gain_over(from, s1, rho);
                 if real.is_none() {
                     log::debug!("{}: {} gains {g:.1}", cands[ci].0.name(), describe(v));
                 }
@@ -165,16 +279,22 @@ pub(super) fn score_round(
         }
         Some((out, sds))
     };
-    let (obs, real_sds) = gains_of(&lin.y, None)?;
+    let (obs, real_sds) = gains_of(&log_fit(lin.y.clone()), None)?;
     // The gap tests' simulated logs (`setting`'s seed): replicate b here is replicate b there.
     let seed = st.seed ^ detect::SEED;
-    let by_rep: Vec<Option<Vec<Vec<f64>>>> = (0..st.boot)
+    let chunks: Vec<Vec<Option<Vec<Vec<f64>>>>> = (0..st.boot.div_ceil(linear::BATCH))
         .into_par_iter()
-        .map(|b| {
-            let y = noise::simulate(ds, &lin.noise, lin.rc.w, seed, b);
-            gains_of(&y, Some(&real_sds)).map(|x| x.0)
+        .map(|c| {
+            let ys = (c * linear::BATCH..((c + 1) * linear::BATCH).min(st.boot))
+                .map(|b| noise::simulate(ds, &lin.noise, lin.rc.w, seed, b))
+                .collect();
+            batch_fits(ys)
+                .iter()
+                .map(|lf| gains_of(lf, Some(&real_sds)).map(|x| x.0))
+                .collect()
         })
         .collect();
+    let by_rep: Vec<Option<Vec<Vec<f64>>>> = chunks.into_iter().flatten().collect();
     let null: Vec<&Vec<Vec<f64>>> = by_rep.iter().flatten().collect();
     let one_fold_e0 = cur_in.residual(&lin.y);
     Some(
