@@ -341,6 +341,23 @@ impl Solver {
     /// columns instead of once per column. Column `j` of each result is what
     /// [`Solver::fits`] gives for column `j` of `y` (to rounding).
     pub fn fits_batch(&self, y: &DMatrix<f64>) -> (DMatrix<f64>, DMatrix<f64>) {
+        let (ys, bs, b) = self.fold_products_batch(y);
+        let beta = self.solve_batch(&self.full, &self.g_full, &b);
+        (y - &self.a * beta, self.cv_batch_from(y, &ys, &bs, &b))
+    }
+
+    /// [`Solver::cv_residual`] for many weighted data at once, as matrix products.
+    pub fn cv_batch(&self, y: &DMatrix<f64>) -> DMatrix<f64> {
+        let (ys, bs, b) = self.fold_products_batch(y);
+        self.cv_batch_from(y, &ys, &bs, &b)
+    }
+
+    /// [`Solver::fold_products`] for many weighted data at once.
+    #[allow(clippy::type_complexity)]
+    fn fold_products_batch(
+        &self,
+        y: &DMatrix<f64>,
+    ) -> (Vec<DMatrix<f64>>, Vec<DMatrix<f64>>, DMatrix<f64>) {
         let ys: Vec<DMatrix<f64>> = self.fold_rows.iter().map(|r| y.select_rows(r)).collect();
         let bs: Vec<DMatrix<f64>> = self
             .fold_a
@@ -352,8 +369,17 @@ impl Solver {
         for bf in &bs {
             b += bf;
         }
-        let beta = self.solve_batch(&self.full, &self.g_full, &b);
-        let res = y - &self.a * beta;
+        (ys, bs, b)
+    }
+
+    /// [`Solver::cv_from`] for many weighted data at once.
+    fn cv_batch_from(
+        &self,
+        y: &DMatrix<f64>,
+        ys: &[DMatrix<f64>],
+        bs: &[DMatrix<f64>],
+        b: &DMatrix<f64>,
+    ) -> DMatrix<f64> {
         let mut cv = y.clone();
         let empty = DMatrix::zeros(0, 0);
         for f in 0..self.fold_rows.len() {
@@ -362,13 +388,13 @@ impl Solver {
             }
             let Some(c) = &self.train[f] else { continue };
             let g = self.g_train.get(f).unwrap_or(&empty);
-            let beta = self.solve_batch(c, g, &(&b - &bs[f]));
+            let beta = self.solve_batch(c, g, &(b - &bs[f]));
             let e = &ys[f] - &self.fold_a[f] * beta;
             for (j, &s) in self.fold_rows[f].iter().enumerate() {
                 cv.row_mut(s).copy_from(&e.row(j));
             }
         }
-        (res, cv)
+        cv
     }
 
     /// [`Solver::residual`] for many weighted data at once (one per column of `y`), as
@@ -518,16 +544,19 @@ mod tests {
                 }];
             }
             let s = Solver::new(&d.append(&more), &folds, 4).unwrap();
+            // A simulated log's solver (the Gram matrices by a blocked product) fits the
+            // same, to rounding.
+            let fast = Solver::for_simulated(&d.append(&more), &folds, 4).unwrap();
             let (r, cv) = s.fits_batch(&ym);
+            let rb = s.residual_batch(&ym);
+            let cvb = s.cv_batch(&ym);
             for (j, y) in ys.iter().enumerate() {
                 let (r1, cv1) = s.fits(y);
                 assert!((r.column(j) - &r1).norm() < 1e-10, "mono {mono}, log {j}");
                 assert!((cv.column(j) - &cv1).norm() < 1e-10, "mono {mono}, log {j}");
                 assert!((&r1 - s.residual(y)).norm() < 1e-10);
-                assert!((s.residual_batch(&ym).column(j) - &r1).norm() < 1e-10);
-                // A simulated log's solver (the Gram matrices by a blocked product) fits
-                // the same, to rounding.
-                let fast = Solver::for_simulated(&d.append(&more), &folds, 4).unwrap();
+                assert!((rb.column(j) - &r1).norm() < 1e-10);
+                assert!((cvb.column(j) - &cv1).norm() < 1e-10);
                 let (r2, cv2) = fast.fits(y);
                 assert!((&r2 - &r1).norm() < 1e-10 && (&cv2 - &cv1).norm() < 1e-10);
                 assert!((&cv1 - s.cv_residual(y)).norm() < 1e-10);

@@ -168,12 +168,9 @@ pub(super) fn score_round(
                 .collect()
         };
         let e0 = cols(&cur_in.residual_batch(&ym));
-        let s0 = sse_cols(&cur_s.fits_batch(&ym).1);
+        let s0 = sse_cols(&cur_s.cv_batch(&ym));
         let s0w: Vec<Option<[f64; 2]>> = match &cur_ws {
-            Some(w) => sse_cols(&w.fits_batch(&ym).1)
-                .into_iter()
-                .map(Some)
-                .collect(),
+            Some(w) => sse_cols(&w.cv_batch(&ym)).into_iter().map(Some).collect(),
             None => vec![None; ys.len()],
         };
         // Per candidate and variant, each log's (visit noise, withheld sums of squares).
@@ -212,19 +209,20 @@ pub(super) fn score_round(
     // are studentised relative to them.
     let gains_of = |lf: &LogFit, real: Option<&Noises>| -> Option<(Vec<Vec<f64>>, Noises)> {
         let (y, e0, s0, s0w) = (&lf.y, &lf.e0, lf.s0, lf.s0w);
+        // The variants found on each log (a box, a band) are fitted here, the real log's with
+        // the exact arithmetic (`Solver::for_simulated`); the fixed ones were fitted with
+        // the log.
+        let solver = if real.is_none() {
+            Solver::new
+        } else {
+            Solver::for_simulated
+        };
         let mut out = Vec::with_capacity(cands.len());
         let mut sds: Noises = Vec::with_capacity(cands.len());
         for (ci, (_, vs)) in cands.iter().enumerate() {
             let mut gs = Vec::with_capacity(vs.len());
             let mut sd_c = Vec::with_capacity(vs.len());
             for (vi, v) in vs.iter().enumerate() {
-                // The variants found on each log (a box, a band) are fitted here; the fixed
-                // ones were fitted with the log.
-                let solver = if real.is_none() {
-                    Solver::new
-                } else {
-                    Solver::for_simulated
-                };
                 let found = match v {
                     Variant::Anomaly => {
                         let (c, p) = anomaly_columns(lin, e0);
