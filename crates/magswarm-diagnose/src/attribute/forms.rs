@@ -8,6 +8,7 @@ use super::*;
 pub(super) fn choose_forms(
     lin: &Linear,
     named: &[(EffectKind, Vec<Variant>)],
+    named_within: &[EffectKind],
     out: &mut Attribution,
     st: Settings,
     progress: &dyn Progress,
@@ -164,6 +165,18 @@ pub(super) fn choose_forms(
         if let Some(e) = e.as_deref_mut() {
             e.curves = Some((p_fit.clone(), learned_pred.unwrap_or_default()));
         }
+        // An effect named on what varies within the visits is judged again the same way: its
+        // shape's gain within the visits, against the row noise, on top of the effects named
+        // before it. Its whole shape's gain on withheld visits counts each visit's mean as
+        // many times as the visit has rows, at the row's whole noise: on long visits whose
+        // offsets are several times the row noise that gain is those offsets' chance (seen:
+        // a growing formation beside a drift, gain within the visits 393 after the drift, the
+        // whole shape -102 on withheld visits).
+        let g_within = if is_shape && named_within.contains(name) {
+            within_gain(lin, &design, shape_design.as_ref())
+        } else {
+            f64::NEG_INFINITY
+        };
         // Given the effects named before it (in whichever form they took), an effect that no
         // longer gains what names an effect is dropped: it was explaining their leftovers. So
         // is one whose variant cannot be written as a learned term (the library form's
@@ -172,7 +185,7 @@ pub(super) fn choose_forms(
         // worse than leaving the effect out (seen: a 16 mm centroid offset with the free
         // parameters dragged to compensate, twice the withheld error of the baseline).
         let writable = if is_shape {
-            g_param.max(g_learned)
+            g_param.max(g_learned).max(g_within)
         } else {
             g_param
         };
@@ -199,6 +212,11 @@ pub(super) fn choose_forms(
             model_d = shape_model_d.expect("shape design");
             if let Some(e) = e {
                 e.form_gains = Some((g_param, g_learned_model));
+                if g_within >= MIN_GAIN && g_param.max(g_learned) < MIN_GAIN {
+                    e.notes.push(format!(
+                        "kept on what varies within the visits (gain {g_within:.1} there with the effects named before it); its whole shape gains {g_learned:.1} on withheld visits, whose offsets it does not describe"
+                    ));
+                }
                 if let Some(why) = set_aside {
                     e.notes.push(format!(
                         "learned shape written: its library form's fit is implausible ({why})"
@@ -315,6 +333,39 @@ fn prune_axes(lin: &Linear, design: &Design, vs: &[Variant]) -> Vec<Variant> {
     out
 }
 
+/// Withheld gain of `with` over `design`, both as they vary within the visits (each visit's
+/// mean taken out of every column), in units of a row's noise about its visit's mean: how a
+/// shape judged within the visits is named.
+fn within_gain(lin: &Linear, design: &Design, with: Option<&Design>) -> f64 {
+    let Some(with) = with else {
+        return f64::NEG_INFINITY;
+    };
+    let folds = (lin.fold_of_stacked.as_slice(), lin.k);
+    within_gain_of(&lin.rc.visit, folds, &lin.y, rho_within(lin), design, with)
+}
+
+/// [`within_gain`] on weighted stacked rows `y` whose row `i` (stacked `2 i`, `2 i + 1`)
+/// belongs to visit `visit[i]`, with folds `(fold of each stacked row, count)` and the
+/// within-visit share of a row's variance `rho`.
+fn within_gain_of(
+    visit: &[usize],
+    (fold_of_stacked, k): (&[usize], usize),
+    y: &DVector<f64>,
+    rho: [f64; 2],
+    design: &Design,
+    with: &Design,
+) -> f64 {
+    let solver = |d: &Design| {
+        let mut d = d.clone();
+        shapes::within_visits(visit, &mut d.a);
+        Solver::new(&d, fold_of_stacked, k)
+    };
+    match (solver(design), solver(with)) {
+        (Some(s0), Some(s1)) => gain(&s0, &s1, y, rho),
+        _ => f64::NEG_INFINITY,
+    }
+}
+
 /// Weighted sum of squares per axis of the rows' errors against predictions `p`.
 fn sse_rows(lin: &Linear, p: &[[f64; 2]]) -> [f64; 2] {
     let ds = lin.ds;
@@ -365,4 +416,65 @@ fn written(
         aug
     };
     fitter::refit_rates(&aug, lin.free, ds, lin.ctx, rows, sd, anchor)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    /// Long visits whose offsets are three times the row noise, a transient after each change
+    /// in proportion to its step, and a design whose one column moves whole visits (as the
+    /// baseline's gains do): judged within the visits, the transient's shape gains far beyond
+    /// what names an effect, more than its whole shape does on withheld visits (whose gain
+    /// the offsets' chance dominates); on the same log without the transient it gains nothing
+    /// that names one.
+    #[test]
+    fn a_transient_beside_large_visit_offsets_keeps_its_gain_within_the_visits() {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
+        let (nv, per) = (40usize, 25usize);
+        let n = nv * per;
+        // A row's whole noise is sqrt(1 + 9): the weighted residual is in its units.
+        let w = 1.0 / 10f64.sqrt();
+        let step: Vec<f64> = (0..nv)
+            .map(|v| if v % 2 == 0 { 1.0 } else { -1.0 } * (1.0 + (v % 3) as f64))
+            .collect();
+        let visit: Vec<usize> = (0..n).map(|i| i / per).collect();
+        let since = |i: usize| (i % per) as f64;
+        let transient = |i: usize| step[visit[i]] * (-since(i) / 3.0).exp();
+        let offsets: Vec<[f64; 2]> = (0..nv).map(|_| [3.0 * g(), 3.0 * g()]).collect();
+        let noise: Vec<f64> = (0..2 * n).map(|_| g()).collect();
+        let log = |amp: f64| {
+            DVector::from_fn(2 * n, |s, _| {
+                let i = s / 2;
+                w * (offsets[visit[i]][s % 2] + amp * transient(i) + noise[s])
+            })
+        };
+        let fold: Vec<usize> = (0..2 * n).map(|s| visit[s / 2] % 5).collect();
+        let tiny = |c: usize| DMatrix::identity(c, c) * 1e-8;
+        let design = Design::new(
+            DMatrix::from_fn(2 * n, 1, |s, _| w * step[visit[s / 2]]),
+            tiny(1),
+        );
+        let shape = DMatrix::from_fn(2 * n, 1, |s, _| w * transient(s / 2));
+        let with = design.extend(&shape, &tiny(1));
+        let rho = [0.1, 0.1];
+        let within = |y: &DVector<f64>| within_gain_of(&visit, (&fold, 5), y, rho, &design, &with);
+        let y = log(0.6);
+        let g_within = within(&y);
+        let whole = gain(
+            &Solver::new(&design, &fold, 5).unwrap(),
+            &Solver::new(&with, &fold, 5).unwrap(),
+            &y,
+            [1.0, 1.0],
+        );
+        assert!(
+            g_within > 50.0 && g_within > whole,
+            "within the visits {g_within:.1}, whole shape {whole:.1}"
+        );
+        let g_null = within(&log(0.0));
+        assert!(g_null < MIN_GAIN, "without the transient: {g_null:.1}");
+    }
 }

@@ -312,6 +312,9 @@ pub fn attribute(
     let mut cur = lin.jac.clone();
     // Named effects: (name, the variants that entered the design).
     let mut named: Vec<(EffectKind, Vec<Variant>)> = Vec::new();
+    // Effects first named on what varies within the visits (a transient judged against the
+    // row noise, blind to the visits' offsets).
+    let mut named_within: Vec<EffectKind> = Vec::new();
     let mut rounds_run = 0;
     // Rounds that only refine a named effect do not count toward `max_effects`, but at most
     // two of them run.
@@ -613,7 +616,9 @@ pub fn attribute(
             out.anomaly_won = true;
             break;
         }
-        let v = match scored[b].best.clone().expect("a variant") {
+        let best_v = scored[b].best.clone().expect("a variant");
+        let by_within = matches!(&best_v, Variant::Shape(f) if f.within);
+        let v = match best_v {
             // Named on what varies within the visits: the whole shape enters the design.
             Variant::Shape(f) if f.within => Variant::Shape(Family { within: false, ..f }),
             v => v,
@@ -639,13 +644,16 @@ pub fn attribute(
             out.ambiguous.push((kind.name().to_string(), a));
         }
         named.push((kind, vec![v]));
+        if by_within {
+            named_within.push(kind);
+        }
         out.accepted.push(kind.name().to_string());
     }
     if named.is_empty() {
         return out;
     }
     // The form of each named effect, and the final model.
-    let (aug, design, learned) = choose_forms(lin, &named, &mut out, st, progress);
+    let (aug, design, learned) = choose_forms(lin, &named, &named_within, &mut out, st, progress);
     // A gap that only the named candidate's evidence found stands or falls with it: dropped
     // (no form of it gains on withheld visits), and nothing else named, the gap is the tests'
     // alone to declare.

@@ -10,6 +10,19 @@ pub(super) fn gain(cur: &Solver, cand: &Solver, y: &DVector<f64>, rho: [f64; 2])
     gain_over(s0, linear::sse_axes(&cand.cv_residual(y)), rho)
 }
 
+/// The within-visit part of a row's variance in the weighted residual's units (a row's whole
+/// noise, its visit's offset included): what a gain judged within the visits is scaled by.
+pub(super) fn rho_within(lin: &Linear) -> [f64; 2] {
+    std::array::from_fn(|a| {
+        let r = (lin.noise.within[a] * lin.rc.w[a]).powi(2);
+        if r.is_finite() && r > 0.0 {
+            r.min(1.0)
+        } else {
+            1.0
+        }
+    })
+}
+
 /// [`gain`] from the current design's withheld sums of squares `s0` (the same for every
 /// variant of a log) and the candidate's, `s1`.
 fn gain_over(s0: [f64; 2], s1: [f64; 2], rho: [f64; 2]) -> f64 {
@@ -106,15 +119,7 @@ pub(super) fn score_round(
         })
         .collect();
     let rough = noise::Roughness::new(ds);
-    // The within-visit part of a row's variance in the weighted residual's units.
-    let rho_within: [f64; 2] = std::array::from_fn(|a| {
-        let r = (lin.noise.within[a] * lin.rc.w[a]).powi(2);
-        if r.is_finite() && r > 0.0 {
-            r.min(1.0)
-        } else {
-            1.0
-        }
-    });
+    let rho_within = rho_within(lin);
     // Gains of every candidate (best variant) on one weighted residual, each variant's
     // studentised by the visit noise its own fit leaves (an F-type ratio: a structure that
     // inflates the current residual's visit noise, a drift that makes repeat visits at other
