@@ -69,3 +69,27 @@ fn an_unusable_output_folder_is_refused_before_any_work() {
     ]);
     assert!(!ok && text.contains("is a folder"), "{text}");
 }
+
+/// `diagnose --fix` takes the names identify's refusal gives; a name that is not one of the
+/// baseline's free parameters is refused before any work, listing those that are.
+#[test]
+fn diagnose_refuses_a_parameter_it_cannot_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = small_log(dir.path());
+    let out = dir.path().join("d");
+    let (ok, text) = magswarm(&[
+        "diagnose",
+        "--log",
+        &log,
+        "--out",
+        out.to_str().unwrap(),
+        "--fix",
+        "a_K1,alpha_3",
+    ]);
+    assert!(!ok);
+    assert!(
+        text.contains("--fix alpha_3") && text.contains("C_1, C_2, a_K1"),
+        "{text}"
+    );
+    assert!(!out.join("report.json").exists());
+}

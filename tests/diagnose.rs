@@ -491,3 +491,41 @@ fn unusable_logs_are_refused_naming_what_is_missing() {
     let e = err_of(&grid(&[3.5, 8.5, 13.5, 18.5], &[2.0, 4.0, 6.0, 8.0], 1));
     assert!(e.contains("no repeats"), "{e}");
 }
+
+/// A log visited at two distances only: identify cannot tell the four z_m-dependent
+/// parameters from C_1, C_2, and diagnose's refusal names them and the flag that holds them;
+/// held at the prior's values (`--fix`, `Config::fix`) the log is diagnosed, and the report
+/// says which parameters were held. A log at one distance stays refused, held or not: no
+/// effect along z_m can be judged there.
+#[test]
+fn a_log_at_two_distances_is_diagnosed_with_the_distance_parameters_held() {
+    let held: Vec<String> = ["a_K1", "a_K2", "alpha_1", "alpha_2"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let fs = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0];
+    let two = Log::from_str_named(&grid(&[8.5, 18.5], &fs, 5), "two.csv").unwrap();
+    let e = err_of(&grid(&[8.5, 18.5], &fs, 5));
+    assert!(e.contains("--fix a_K1,a_K2,alpha_1,alpha_2"), "{e}");
+    let c = Config {
+        fix: held.clone(),
+        ..cfg()
+    };
+    let d = diagnose::diagnose(&two, None, &Model::paper(), &c).expect("diagnosed with --fix");
+    let free: Vec<&str> = d.ident.steady.free.iter().map(|f| f.name()).collect();
+    assert!(held.iter().all(|h| !free.contains(&h.as_str())), "{free:?}");
+    let dir = tempfile::tempdir().unwrap();
+    diagnose::report::write(&d, dir.path()).unwrap();
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+            .unwrap();
+    assert_eq!(j["baseline"]["held_parameters"], serde_json::json!(held));
+    let md = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    assert!(md.contains("a_K1, a_K2, alpha_1, alpha_2 held at the prior's values"));
+    let one = Log::from_str_named(&grid(&[8.5], &fs, 5), "one.csv").unwrap();
+    let e = format!(
+        "{:#}",
+        diagnose::diagnose(&one, None, &Model::paper(), &c).expect_err("one distance")
+    );
+    assert!(e.contains("one z_m only"), "{e}");
+}

@@ -33,6 +33,10 @@ pub struct DiagnoseArgs {
     /// Skip bad rows (each reported on stderr) instead of failing.
     #[arg(long)]
     pub lenient: bool,
+    /// Steady parameters to hold at the prior model's values in the baseline, comma-separated
+    /// (as identify's --fix): for a log that cannot tell them apart, e.g. one distance only.
+    #[arg(long, value_delimiter = ',')]
+    pub fix: Vec<String>,
 }
 
 impl DiagnoseArgs {
@@ -41,8 +45,24 @@ impl DiagnoseArgs {
         if !(self.alpha > 0.0 && self.alpha < 0.5) {
             anyhow::bail!("--alpha {}: must lie in (0, 0.5)", self.alpha);
         }
+        let steady = magswarm_identify::Config::default().free;
+        let mut fix = Vec::new();
+        for n in &self.fix {
+            let n = n.trim();
+            if n.is_empty() {
+                continue;
+            }
+            if !steady.iter().any(|p| p == n) {
+                anyhow::bail!(
+                    "--fix {n}: not a free parameter of the baseline (those are {})",
+                    steady.join(", ")
+                );
+            }
+            fix.push(n.to_string());
+        }
         Ok(magswarm::diagnose::Config {
             alpha: self.alpha,
+            fix,
             folds: self.folds.max(2),
             boot: self.bootstrap.max(19),
             seed: self.seed,

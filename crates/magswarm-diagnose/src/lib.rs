@@ -57,7 +57,7 @@ use std::time::{Duration, Instant};
 pub const WORSE_ALPHA: f64 = 0.05;
 
 /// Library face of the flags.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Config {
     /// Significance level.
     pub alpha: f64,
@@ -69,6 +69,10 @@ pub struct Config {
     pub max_effects: usize,
     /// Bootstrap replicates (simulated logs) that calibrate the gap tests and the acceptance.
     pub boot: usize,
+    /// Steady parameters held at the prior's values in the baseline (removed from identify's
+    /// default free set): a log that cannot tell them apart (a single distance, a single
+    /// frequency) is diagnosed with them held, as identify is with `--fix`.
+    pub fix: Vec<String>,
 }
 
 impl Default for Config {
@@ -79,6 +83,7 @@ impl Default for Config {
             seed: 1,
             max_effects: 3,
             boot: 499,
+            fix: Vec::new(),
         }
     }
 }
@@ -282,6 +287,26 @@ fn check_usable(ds: &Dataset, source: &str) -> Result<(), DiagnoseError> {
     Ok(())
 }
 
+/// The log's own refusals that no baseline can lift, said before the baseline is fitted: a
+/// log at one distance or one frequency cannot show an effect along it, whatever parameters
+/// identify is told to hold (its own refusal would only say which to fix).
+fn check_levels(log: &Log) -> Result<(), DiagnoseError> {
+    let valid = || log.rows.iter().filter(|r| r.valid);
+    let one = |x: &dyn Fn(&magswarm_log::LogRow) -> f64| {
+        let mut v = valid().map(x).filter(|x| x.is_finite());
+        let first = v.next()?;
+        v.all(|y| (y - first).abs() < 1e-9).then_some(first)
+    };
+    let source_name = log.source.clone();
+    if let Some(f_hz) = one(&|r| r.f_hz) {
+        return Err(DiagnoseError::OneFrequency { source_name, f_hz });
+    }
+    if let Some(z_mm) = one(&|r| r.z_m_mm) {
+        return Err(DiagnoseError::OneDistance { source_name, z_mm });
+    }
+    Ok(())
+}
+
 /// Diagnose a log (and validate on `withheld`).
 pub fn diagnose(
     log: &Log,
@@ -310,14 +335,16 @@ pub fn diagnose_with_progress(
     for s in &log.skipped {
         log::warn!("{}: skipped {s}", log.source);
     }
+    check_levels(log)?;
     pb.start(3 + 1 + 6 + 5 + 4);
     pb.stage("baseline");
-    let icfg = identify::Config {
+    let mut icfg = identify::Config {
         starts: 4,
         bootstrap: 0,
         seed: cfg.seed,
         ..identify::Config::default()
     };
+    icfg.free.retain(|p| !cfg.fix.contains(p));
     // The baseline is the prior without effects: a prior that has some (an earlier run's
     // augmented.json) lends its base parameters as start values; the effects are what the
     // candidates are for.
@@ -525,7 +552,7 @@ pub fn diagnose_with_progress(
         unexplained,
         withheld,
         elapsed: t0.elapsed(),
-        cfg: *cfg,
+        cfg: cfg.clone(),
     })
 }
 

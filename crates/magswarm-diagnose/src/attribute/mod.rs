@@ -334,6 +334,16 @@ pub fn attribute(
         // does not reach alpha the round's candidates need not be scored (the most costly
         // step).
         if round > 1 && !noise::rejects(det.tests_p, st.alpha) {
+            let strongest = det
+                .alts
+                .iter()
+                .min_by(|a, b| a.p.total_cmp(&b.p))
+                .map(|a| format!("{} {} at p {:.2e}", a.family, a.name, a.p))
+                .unwrap_or_default();
+            log::debug!(
+                "round {round}: the tests' p {:.3e} on what the named effects leave does not reach alpha (strongest: {strongest}): selection stops",
+                det.tests_p
+            );
             out.push_round(det, st.alpha);
             break;
         }

@@ -10,10 +10,18 @@ pub(super) fn markdown(d: &Diagnosis, figs: &[(String, String)]) -> String {
     let _ = writeln!(w, "# Sim-to-real gap report\n");
     let _ = writeln!(
         w,
-        "Log: {}. Baseline: `{}` fitted by identify ({} free steady parameters). {} rows ({} valid), {} visits, {} operating points, {} session(s). Residual = measured minus model. Wall time {:.2} s.\n",
+        "Log: {}. Baseline: `{}` fitted by identify ({} free steady parameters{}). {} rows ({} valid), {} visits, {} operating points, {} session(s). Residual = measured minus model. Wall time {:.2} s.\n",
         d.sources.join(", "),
         d.ident.prior.name,
         d.ident.steady.free.len(),
+        if d.cfg.fix.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; {} held at the prior's values: a log that disagrees with a held value shows it as a gap like any other",
+                d.cfg.fix.join(", ")
+            )
+        },
         d.ds.rows_total,
         d.ds.rows.len(),
         d.ds.visits.len(),

@@ -203,6 +203,8 @@ pub fn json(d: &Diagnosis) -> Value {
         "ambiguous": d.attr.ambiguous.iter().map(|(a, b)| json!([a, b])).collect::<Vec<_>>(),
         "unexplained": unexplained,
         "baseline": {
+            "free_parameters": d.ident.steady.free.iter().map(|f| f.name()).collect::<Vec<_>>(),
+            "held_parameters": d.cfg.fix,
             "train_rmse_mm": axes(t[0].0.rmse),
             "heldout_rmse_mm": axes(pool(t[0].1, w.map(|w| w.baseline))),
             "heldout_cv_rmse_mm": axes(t[0].1.rmse),
