@@ -202,6 +202,13 @@ pub(super) fn choose_forms(
             out.accepted.retain(|a| a != name.name());
             continue;
         }
+        if g_param.max(g_learned) < MIN_GAIN {
+            if let Some(e) = e.as_deref_mut() {
+                e.notes.push(format!(
+                    "kept on what varies within the visits (gain {g_within:.1} there with the effects named before it); on withheld visits its whole shape gains {g_learned:.1}, its library form {g_param:.1}: the visits' offsets, which it does not describe, weigh there"
+                ));
+            }
+        }
         if use_learned {
             for v in vs {
                 if let Variant::Shape(f) = v {
@@ -212,11 +219,6 @@ pub(super) fn choose_forms(
             model_d = shape_model_d.expect("shape design");
             if let Some(e) = e {
                 e.form_gains = Some((g_param, g_learned_model));
-                if g_within >= MIN_GAIN && g_param.max(g_learned) < MIN_GAIN {
-                    e.notes.push(format!(
-                        "kept on what varies within the visits (gain {g_within:.1} there with the effects named before it); its whole shape gains {g_learned:.1} on withheld visits, whose offsets it does not describe"
-                    ));
-                }
                 if let Some(why) = set_aside {
                     e.notes.push(format!(
                         "learned shape written: its library form's fit is implausible ({why})"
