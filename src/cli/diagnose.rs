@@ -45,21 +45,13 @@ impl DiagnoseArgs {
         if !(self.alpha > 0.0 && self.alpha < 0.5) {
             anyhow::bail!("--alpha {}: must lie in (0, 0.5)", self.alpha);
         }
-        let steady = magswarm_identify::Config::default().free;
-        let mut fix = Vec::new();
-        for n in &self.fix {
-            let n = n.trim();
-            if n.is_empty() {
-                continue;
-            }
-            if !steady.iter().any(|p| p == n) {
-                anyhow::bail!(
-                    "--fix {n}: not a free parameter of the baseline (those are {})",
-                    steady.join(", ")
-                );
-            }
-            fix.push(n.to_string());
-        }
+        // Checked by the library against the baseline's free set.
+        let fix = self
+            .fix
+            .iter()
+            .map(|n| n.trim().to_string())
+            .filter(|n| !n.is_empty())
+            .collect();
         Ok(magswarm::diagnose::Config {
             alpha: self.alpha,
             fix,

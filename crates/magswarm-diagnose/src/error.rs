@@ -43,6 +43,14 @@ pub enum DiagnoseError {
         /// The distance \[mm\].
         z_mm: f64,
     },
+    /// A parameter to hold that the baseline does not fit.
+    #[error("--fix {name}: not a free parameter of the baseline (those are {})", free.join(", "))]
+    NotFree {
+        /// The name asked for.
+        name: String,
+        /// The baseline's free parameters.
+        free: Vec<String>,
+    },
     /// Too few visits to decide (no repeats).
     #[error(
         "{source_name}: too few visits to decide: {visits} visit(s) and no repeats (no operating \

@@ -327,6 +327,20 @@ pub fn diagnose_with_progress(
     pb: &dyn Progress,
 ) -> Result<Diagnosis, DiagnoseError> {
     let t0 = Instant::now();
+    // The arguments first: a parameter to hold that the baseline does not fit.
+    let mut icfg = identify::Config {
+        starts: 4,
+        bootstrap: 0,
+        seed: cfg.seed,
+        ..identify::Config::default()
+    };
+    if let Some(name) = cfg.fix.iter().find(|n| !icfg.free.contains(n)) {
+        return Err(DiagnoseError::NotFree {
+            name: name.clone(),
+            free: icfg.free,
+        });
+    }
+    icfg.free.retain(|p| !cfg.fix.contains(p));
     if !log.has_radii() {
         return Err(DiagnoseError::NoRadii {
             source_name: log.source.clone(),
@@ -338,13 +352,6 @@ pub fn diagnose_with_progress(
     check_levels(log)?;
     pb.start(3 + 1 + 6 + 5 + 4);
     pb.stage("baseline");
-    let mut icfg = identify::Config {
-        starts: 4,
-        bootstrap: 0,
-        seed: cfg.seed,
-        ..identify::Config::default()
-    };
-    icfg.free.retain(|p| !cfg.fix.contains(p));
     // The baseline is the prior without effects: a prior that has some (an earlier run's
     // augmented.json) lends its base parameters as start values; the effects are what the
     // candidates are for.
