@@ -46,6 +46,9 @@ EFFECTS = {
         # A transient that follows only the changes that make a radius shrink.
         {"effect": "formation_lag", "axis": "since_change_s", "mode": "step_fraction",
          "steps": "shrinking", "knots": [0.0, 3.0, 8.0], "r1": [0.5, 0.2, 0.0], "r2": [0.4, 0.1, 0.0]},
+        # A transient that grows with the step's size (a rate limit): heights x |step| / 1.5 mm.
+        {"effect": "formation_lag", "axis": "since_change_s", "mode": "step_fraction",
+         "step_size_mm": 1.5, "knots": [0.0, 1.0, 4.0], "r1": [0.3, 0.2, 0.0], "r2": [0.4, 0.15, 0.0]},
     ],
 }
 

@@ -40,6 +40,7 @@ pub fn term(m: &Model, kind: EffectKind, sh: &Shape, b_mid: f64) -> LearnedTerm 
         field_exponent: nu,
         amplitude_exponent: f.amp,
         steps: f.steps,
+        step_size_mm: f.size_mm,
     }
 }
 

@@ -137,6 +137,9 @@ pub struct Family {
     /// per radius by the sign of the step of the steady map. A swarm need not form the same
     /// way when it grows (particles gathered from further out) as when it contracts.
     pub steps: Steps,
+    /// For `StepFraction`: heights scaled by `|step| / size_mm` (a transient that grows with
+    /// the step's size, not in proportion to it; the model file's `step_size_mm`); 0: off.
+    pub size_mm: f64,
 }
 
 /// Which input changes a transient follows, per radius by the sign of its step: the model
@@ -170,6 +173,7 @@ impl Family {
             within: false,
             ratio: 1.0,
             steps: Steps::All,
+            size_mm: 0.0,
         }
     }
 }
@@ -388,7 +392,15 @@ impl RowCtx {
                 Mode::Aspect | Mode::Common => {
                     self.pred[i][a] * if a == 0 { f.r1_share() } else { 1.0 }
                 }
-                Mode::StepFraction => self.delta[i][a] * f.steps.of(self.delta[i][a]),
+                Mode::StepFraction => {
+                    let d = self.delta[i][a];
+                    let size = if f.size_mm > 0.0 {
+                        d.abs() / f.size_mm
+                    } else {
+                        1.0
+                    };
+                    d * f.steps.of(d) * size
+                }
                 Mode::Rate => -self.dmap_df[i][a],
             }
     }
@@ -483,6 +495,102 @@ pub fn within_design(d: &Design, rc: &RowCtx) -> Design {
 /// Ridge on the within-only nuisance's unit-norm columns.
 const WITHIN_NUISANCE_RIDGE: f64 = 1e-2;
 
+/// A transient whose course depends on the size of the step, judged within the visits
+/// beside *any* course that is proportional to the step: (null, alternative) designs.
+///
+/// Why: a rig's own approach law is linear in the step however it is shaped (first or
+/// second order, a time constant that changes with depth), so another lab's law, which
+/// ODE (4) does not follow, leaves a residual `step x g(since, z_m)`. The null here takes
+/// every such course: a free shape after each change (`fine`, per radius), and the same
+/// coarse shape modulated by the centred depth and its square (a time scale that varies
+/// with depth), on top of `base_within`, whose own transient column (ODE (4)'s replay less
+/// its map, coefficient free) can take the baseline's nonlinear approach out altogether.
+/// What the alternative adds, the coarse shape modulated by the step's centred size, only a
+/// formation that is not linear in the step makes: a rate limit (a large change takes
+/// longer, a small one not), a nucleation threshold. None where the steps are all of one
+/// size or there is no change.
+pub fn step_size_designs(
+    base_within: &Design,
+    fine: &Family,
+    coarse: &Family,
+    rc: &RowCtx,
+) -> Option<(Design, Design)> {
+    let n = rc.len();
+    let after: Vec<[bool; 2]> = rc
+        .delta
+        .iter()
+        .map(|d| [d[0] != 0.0, d[1] != 0.0])
+        .collect();
+    // A factor per row and axis, centred and scaled over the rows that follow a change.
+    let standard = |x: &dyn Fn(usize, usize) -> f64| -> Option<Vec<[f64; 2]>> {
+        let mut out = vec![[0.0; 2]; n];
+        for ax in 0..2 {
+            let v: Vec<f64> = (0..n).filter(|&i| after[i][ax]).map(|i| x(i, ax)).collect();
+            if v.len() < 3 {
+                return None;
+            }
+            let m = v.iter().sum::<f64>() / v.len() as f64;
+            let sd = (v.iter().map(|a| (a - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt();
+            if sd.is_nan() || sd <= 1e-9 * m.abs().max(1e-9) {
+                return None;
+            }
+            for i in (0..n).filter(|&i| after[i][ax]) {
+                out[i][ax] = (x(i, ax) - m) / sd;
+            }
+        }
+        Some(out)
+    };
+    let size = standard(&|i, ax| rc.delta[i][ax].abs())?;
+    let zc = standard(&|i, _| rc.z[i]).unwrap_or_else(|| vec![[0.0; 2]; n]);
+    let zc2 = standard(&|i, _| {
+        let z = rc.z[i];
+        z * z
+    })
+    .unwrap_or_else(|| vec![[0.0; 2]; n]);
+    let (raw, _) = columns(
+        &Family {
+            within: false,
+            ..coarse.clone()
+        },
+        rc,
+    );
+    let k = free_knots(coarse);
+    let modulated = |fac: &[[f64; 2]]| -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+        let mut a = raw.clone();
+        for i in 0..n {
+            for ax in 0..2 {
+                a.row_mut(2 * i + ax).scale_mut(fac[i][ax]);
+            }
+        }
+        within_visits(&rc.visit, &mut a);
+        let info = (0..a.ncols())
+            .map(|c| a.column(c).norm_squared())
+            .sum::<f64>()
+            / a.ncols().max(1) as f64;
+        if info.is_nan() || info <= 1e-12 {
+            return None;
+        }
+        let pen = linear::roughness(k, 2, coarse.smooth * info, 1e-3 * info);
+        Some((a, pen))
+    };
+    let (g, gp) = columns(
+        &Family {
+            within: true,
+            ..fine.clone()
+        },
+        rc,
+    );
+    let mut null = base_within.extend(&g, &gp);
+    for fac in [&zc, &zc2] {
+        if let Some((a, p)) = modulated(fac) {
+            null = null.extend(&a, &p);
+        }
+    }
+    let (h, hp) = modulated(&size)?;
+    let alt = null.extend(&h, &hp);
+    Some((null, alt))
+}
+
 /// The columns, penalty and monotone blocks of a family, as a design fragment.
 pub fn design(f: &Family, rc: &RowCtx) -> Design {
     let (a, pen) = columns(f, rc);
@@ -547,6 +655,115 @@ pub fn shape_of(f: &Family, coef: &[f64], sd: &[f64]) -> Shape {
 mod tests {
     use super::*;
 
+    /// The step-size test's designs (`step_size_designs`) on visits of ten rows spread
+    /// 0.6-30 s after changes of many sizes, at five depths. A rig whose own approach is
+    /// linear in the step -- critically damped, with a time constant that grows 2.4 times
+    /// with depth, where the baseline's transient is first order at 1 s -- leaves the
+    /// alternative a drop of the order of its columns (chance), although that law's
+    /// mismatch is far beyond the row noise; a rate limit on top of a first-order approach
+    /// (1 mm/s, so the larger steps take longer) leaves it a drop far beyond.
+    #[test]
+    fn a_transient_growing_with_its_step_shows_beside_any_approach_linear_in_the_step() {
+        use nalgebra::DVector;
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let mut g = || -> f64 { StandardNormal.sample(&mut rng) };
+        let times = [0.6, 0.9, 1.4, 2.2, 3.4, 5.2, 8.0, 12.3, 19.0, 30.0];
+        let nv = 60usize;
+        let n = nv * times.len();
+        let depth = |v: usize| 3.5 + 5.0 * (v % 5) as f64;
+        let step: Vec<[f64; 2]> = (0..nv)
+            .map(|v| {
+                let a = 0.3 + 0.27 * ((v * 7) % 11) as f64;
+                let s = if (v / 5) % 2 == 0 { 1.0 } else { -1.0 };
+                [0.5 * s * a, s * a]
+            })
+            .collect();
+        let (row_sd, w) = (0.05, 20.0);
+        let rc = RowCtx {
+            w: [w, w],
+            z: (0..n).map(|i| depth(i / times.len())).collect(),
+            f: vec![5.0; n],
+            ln_b: vec![0.0; n],
+            t: (0..n)
+                .map(|i| 32.0 * (i / times.len()) as f64 + times[i % times.len()])
+                .collect(),
+            since: (0..n).map(|i| times[i % times.len()]).collect(),
+            delta: (0..n).map(|i| step[i / times.len()]).collect(),
+            pred: vec![[5.0, 8.0]; n],
+            dmap_df: vec![[0.0; 2]; n],
+            visit: (0..n).map(|i| i / times.len()).collect(),
+            within_nuisance: DMatrix::zeros(2 * n, 0),
+        };
+        // The baseline: its own first-order transient at 1 s, per radius, coefficient free.
+        let ode = |i: usize, ax: usize| rc.delta[i][ax] * (-rc.since[i]).exp();
+        let base = Design::new(
+            DMatrix::from_fn(
+                2 * n,
+                2,
+                |s, c| if s % 2 == c { w * ode(s / 2, c) } else { 0.0 },
+            ),
+            DMatrix::identity(2, 2) * 1e-8,
+        );
+        let base_within = within_design(&base, &rc);
+        let fine = crate::detect::since_family(&rc, 0.01, crate::detect::SINCE_FINE_KNOTS).unwrap();
+        let coarse = crate::detect::since_family(&rc, 0.3, 6).unwrap();
+        let (null, alt) = step_size_designs(&base_within, &fine, &coarse, &rc).unwrap();
+        let one = vec![0usize; 2 * n];
+        let (s0, s1) = (
+            linear::Solver::new(&null, &one, 1).unwrap(),
+            linear::Solver::new(&alt, &one, 1).unwrap(),
+        );
+        let noise: Vec<f64> = (0..2 * n).map(|_| g()).collect();
+        let offsets: Vec<f64> = (0..2 * nv).map(|_| 6.0 * g()).collect();
+        // Weighted residual: the measured missing part of the step less the baseline's, row
+        // noise, and an offset per visit.
+        let log = |missing: &dyn Fn(usize, usize) -> f64| {
+            DVector::from_fn(2 * n, |s, _| {
+                let (i, ax) = (s / 2, s % 2);
+                w * (missing(i, ax) - ode(i, ax) + row_sd * noise[s])
+                    + offsets[2 * rc.visit[i] + ax]
+            })
+        };
+        let drop = |y: &DVector<f64>| {
+            let sse = |e: DVector<f64>| e.norm_squared();
+            sse(s0.residual(y)) - sse(s1.residual(y))
+        };
+        let critical = |i: usize, ax: usize| {
+            let tau =
+                0.4 * (1.0 + 1.2 * (rc.z[i] / 23.5).powi(2)) * if ax == 1 { 1.3 } else { 1.0 };
+            let u = rc.since[i] / tau;
+            rc.delta[i][ax] * (1.0 + u) * (-u).exp()
+        };
+        let (tau, vmax) = (0.5, 1.0);
+        let limited = |i: usize, ax: usize| {
+            let (d, s) = (rc.delta[i][ax], rc.since[i]);
+            // |x| falls at vmax until the first-order rate drops below it (|x| = vmax tau).
+            let t1 = ((d.abs() - vmax * tau) / vmax).max(0.0);
+            let x = if s < t1 {
+                d.abs() - vmax * s
+            } else {
+                d.abs().min(vmax * tau) * (-(s - t1) / tau).exp()
+            };
+            d.signum() * x
+        };
+        let mismatch = (0..n)
+            .flat_map(|i| [0, 1].map(|ax| (w * (critical(i, ax) - ode(i, ax))).powi(2)))
+            .sum::<f64>();
+        let (linear_law, rate_limit) = (drop(&log(&critical)), drop(&log(&limited)));
+        let dof = alt.a.ncols() - null.a.ncols();
+        assert!(mismatch > 1e4, "the linear law's mismatch: {mismatch:.0}");
+        assert!(
+            linear_law < 3.0 * dof as f64,
+            "a linear approach law: drop {linear_law:.1} ({dof} columns)"
+        );
+        assert!(
+            rate_limit > 30.0 * dof as f64,
+            "a rate limit: drop {rate_limit:.1} ({dof} columns)"
+        );
+    }
+
     #[test]
     fn a_radius_the_shape_does_not_act_on_is_zero_and_certain() {
         let f = Family {
@@ -588,6 +805,7 @@ mod tests {
                 smooth: 0.0,
                 ratio: 1.0,
                 steps: Steps::All,
+                size_mm: 0.0,
             },
             values: [vec![0.0, 1.0, 3.0], vec![0.0, 0.0, 0.0]],
             sd: [vec![0.0; 3], vec![0.0; 3]],

@@ -127,6 +127,13 @@ pub struct LearnedTerm {
     /// The input changes a `step_fraction` term follows (default `all`).
     #[serde(default, skip_serializing_if = "LearnedSteps::is_all")]
     pub steps: LearnedSteps,
+    /// A `step_fraction` term whose share grows with the size of the step \[mm\]: the
+    /// heights are scaled by `|step| / step_size_mm`, so the missing part goes as
+    /// `step |step|`. A transient that is not proportional to its step (a rate limit makes a
+    /// large change take longer, a small one not) needs it beside a plain term. Default 0:
+    /// off (the share of the step does not depend on its size).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub step_size_mm: f64,
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -216,6 +223,21 @@ impl LearnedTerm {
                 "step_fraction goes with the axis since_change_s, and since_change_s with step_fraction only".into(),
             ));
         }
+        if !(self.step_size_mm.is_finite() && self.step_size_mm >= 0.0) {
+            return Err(err(
+                "step_size_mm",
+                format!(
+                    "{} is not a finite size >= 0 mm (0: off)",
+                    self.step_size_mm
+                ),
+            ));
+        }
+        if self.step_size_mm != 0.0 && self.mode != LearnedMode::StepFraction {
+            return Err(err(
+                "step_size_mm",
+                "only a step_fraction term scales with the step's size".into(),
+            ));
+        }
         if self.steps != LearnedSteps::All && self.mode != LearnedMode::StepFraction {
             return Err(err(
                 "steps",
@@ -246,6 +268,18 @@ impl LearnedTerm {
             }
         }
         Ok(())
+    }
+
+    /// The multiplier of a `step_fraction` term's heights for a step `delta` \[mm\] of one
+    /// radius: whether the term follows that step at all (`steps`), times the step's size
+    /// relative to `step_size_mm` where that is set.
+    pub fn step_share(&self, delta: f64) -> f64 {
+        let size = if self.step_size_mm > 0.0 {
+            delta.abs() / self.step_size_mm
+        } else {
+            1.0
+        };
+        self.steps.of(delta) * size
     }
 
     /// Heights at `x` per radius and their slopes d/dx (piecewise linear, flat beyond the end
@@ -299,6 +333,7 @@ mod tests {
             field_exponent: 0.0,
             amplitude_exponent: 0.0,
             steps: LearnedSteps::All,
+            step_size_mm: 0.0,
         }
     }
 

@@ -29,6 +29,7 @@ fn term(
         field_exponent: 0.0,
         amplitude_exponent: 0.0,
         steps: Default::default(),
+        step_size_mm: 0.0,
     }
 }
 
@@ -306,4 +307,71 @@ fn model_files_with_bad_learned_terms_are_refused_naming_the_field() {
     let s = serde_json::to_string(&m).unwrap();
     let back: Model = serde_json::from_str(&s).unwrap();
     assert_eq!(back, m);
+}
+
+/// A term scaled by the step's size (`step_size_mm`): after a change twice as large the
+/// correction is four times as large (step x |step|), where a plain term's is twice; after
+/// a change of exactly `step_size_mm` the two agree. A size set on a term that does not
+/// follow the steps, or a size that is not a finite number >= 0, is refused by name.
+#[test]
+fn a_size_scaled_step_fraction_grows_as_the_step_times_its_size() {
+    let shape = |size: f64| LearnedTerm {
+        step_size_mm: size,
+        ..term(
+            LearnedAxis::SinceChangeS,
+            LearnedMode::StepFraction,
+            &[0.0, 10.0],
+            &[-0.5, 0.0],
+            &[-0.5, 0.0],
+        )
+    };
+    // Two changes of depth at 5 Hz: 8.5 -> 13.5 mm, then 13.5 -> 23.5 mm.
+    let sched = [(20.0, 8.5, 5.0), (30.0, 13.5, 5.0), (30.0, 23.5, 5.0)];
+    let plain = run(&Model::paper(), &sched);
+    let flat = run(&with(vec![shape(0.0)]), &sched);
+    // The steady map's steps of r2 at the two changes.
+    let r2 = |z: f64| steady::evaluate(&Model::paper(), z * 1e-3, hz(5.0)).r2;
+    let (d1, d2) = (r2(13.5) - r2(8.5), r2(23.5) - r2(13.5));
+    assert!(
+        d1.abs() > 0.1 && d2.abs() > 1.5 * d1.abs(),
+        "steps {d1}, {d2}"
+    );
+    let size = d1.abs();
+    let scaled = run(&with(vec![shape(size)]), &sched);
+    // 1 s after each change (rows 41 and 101): the plain term's correction, and the scaled
+    // one's, relative to the run without terms.
+    for (row, d) in [(41usize, d1), (101, d2)] {
+        let c_flat = flat[row][1] - plain[row][1];
+        let c_scaled = scaled[row][1] - plain[row][1];
+        assert!(c_flat.abs() > 1e-3, "row {row}: {c_flat}");
+        let want = c_flat * d.abs() / size;
+        assert!(
+            (c_scaled - want).abs() < 1e-9 + 1e-6 * want.abs(),
+            "row {row}: {c_scaled} against {want}"
+        );
+    }
+    // Refused: a size on a term over z_m, a negative size, a NaN.
+    for (t, what) in [
+        (
+            LearnedTerm {
+                step_size_mm: 1.0,
+                ..term(
+                    LearnedAxis::ZmMm,
+                    LearnedMode::AddMm,
+                    &[5.0, 10.0],
+                    &[0.0, 1.0],
+                    &[0.0, 1.0],
+                )
+            },
+            "only a step_fraction term",
+        ),
+        (shape(-1.0), "not a finite size"),
+        (shape(f64::NAN), "not a finite size"),
+    ] {
+        let mut m = with(vec![t]);
+        m.schema = magswarm_model::SCHEMA.into();
+        let e = m.validate().unwrap_err();
+        assert_eq!(e.path, "effects.learned[0].step_size_mm");
+        assert!(e.message.contains(what), "{e}");
+    }
 }

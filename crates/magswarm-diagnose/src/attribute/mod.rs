@@ -633,12 +633,28 @@ pub fn attribute(
             Variant::Shape(f) if f.within => Variant::Shape(Family { within: false, ..f }),
             v => v,
         };
-        if let Some(more) = columns_of(&v, &lin.rc) {
-            cur = cur.append(&more);
-        }
         let Some(kind) = scored[b].name.kind() else {
             break;
         };
+        // A refinement that repeats a shape already in the design (named within the visits,
+        // its whole shape was entered) adds nothing but a copy of its columns, and the
+        // model file would carry the term twice, its heights split between the copies.
+        let repeats = named.iter().any(|(a, vs)| {
+            *a == kind
+                && vs
+                    .iter()
+                    .any(|x| matches!((x, &v), (Variant::Shape(p), Variant::Shape(q)) if p == q))
+        });
+        if repeats {
+            log::debug!(
+                "round {round}: {} would repeat a shape already named: selection stops",
+                kind.name()
+            );
+            break;
+        }
+        if let Some(more) = columns_of(&v, &lin.rc) {
+            cur = cur.append(&more);
+        }
         if let Some(n) = named.iter_mut().find(|(a, _)| *a == kind) {
             // A refinement: the named effect's shape gains a term.
             n.1.push(v);

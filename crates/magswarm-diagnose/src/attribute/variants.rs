@@ -150,6 +150,32 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                 ..f.clone()
             }));
         }
+        // A transient that grows with the step's size, not in proportion to it (a rate
+        // limit: a large change takes longer, a small one hardly longer than the rig's own
+        // approach). No approach law of a rig that is linear in the step makes it, which is
+        // why the gap tests judge it beside every such course (`since_size_within`). Heights
+        // relative to the mean step's size. Named on what varies within the visits only (the
+        // whole shape enters the model): as a shape that also moves the visits' means it
+        // widened the null of every such formation shape (a slow growth at 2x lost its name,
+        // p 0.008 -> 0.02).
+        let sizes: Vec<f64> = rc
+            .delta
+            .iter()
+            .flat_map(|d| d.iter().copied())
+            .filter(|d| *d != 0.0)
+            .map(f64::abs)
+            .collect();
+        if !sizes.is_empty() {
+            let mean = sizes.iter().sum::<f64>() / sizes.len() as f64;
+            if mean > 0.0 && mean.is_finite() {
+                v.push(Variant::Shape(Family {
+                    smooth: 1.0,
+                    size_mm: mean,
+                    within: true,
+                    ..f.clone()
+                }));
+            }
+        }
         // The same within each visit: once the baseline's time scale has taken the average
         // approach, what is left of a one-sided transient is small beside the visits' offsets
         // and plain beside the row noise.
@@ -382,6 +408,12 @@ pub(super) fn describe(v: &Variant) -> String {
                 Steps::All => {}
                 Steps::Growing => extra += ", after the changes that make a radius grow",
                 Steps::Shrinking => extra += ", after the changes that make a radius shrink",
+            }
+            if f.size_mm > 0.0 {
+                extra += &format!(
+                    ", growing with the step's size (x |step| / {:.3} mm)",
+                    f.size_mm
+                );
             }
             format!(
                 "learned shape over {} ({} knots, smoothing {}{extra})",

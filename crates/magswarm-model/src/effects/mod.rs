@@ -316,7 +316,7 @@ impl Effects {
         {
             let (v, _) = term.value(tau);
             for i in 0..2 {
-                out[i] += v[i] * delta[i] * term.steps.of(delta[i]);
+                out[i] += v[i] * delta[i] * term.step_share(delta[i]);
             }
         }
         out

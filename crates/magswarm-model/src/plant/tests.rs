@@ -80,6 +80,7 @@ fn envelope_validity_is_the_classification_of_the_inputs() {
         field_exponent: 0.0,
         amplitude_exponent: 0.0,
         steps: Default::default(),
+        step_size_mm: 0.0,
     });
     for m in [paper, slowed] {
         for table in [false, true] {
