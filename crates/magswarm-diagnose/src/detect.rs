@@ -234,7 +234,7 @@ pub(crate) fn surface(ds: &Dataset, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>)
             }
         }
     }
-    let info = (0..2 * k).map(|c| a.column(c).norm_squared()).sum::<f64>() / (2 * k) as f64;
+    let info = shapes::column_info(&a);
     let pen = DMatrix::identity(2 * k, 2 * k) * (0.3 * info.max(1e-12));
     (a, pen)
 }
@@ -248,7 +248,7 @@ fn point_means(ds: &Dataset, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
             a[(2 * i + ax, ax * k + r.point)] = rc.w[ax];
         }
     }
-    let info = (0..2 * k).map(|c| a.column(c).norm_squared()).sum::<f64>() / (2 * k) as f64;
+    let info = shapes::column_info(&a);
     let pen = DMatrix::identity(2 * k, 2 * k) * (1e-3 * info.max(1e-12));
     (a, pen)
 }

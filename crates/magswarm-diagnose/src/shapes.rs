@@ -394,12 +394,7 @@ impl RowCtx {
                 }
                 Mode::StepFraction => {
                     let d = self.delta[i][a];
-                    let size = if f.size_mm > 0.0 {
-                        d.abs() / f.size_mm
-                    } else {
-                        1.0
-                    };
-                    d * f.steps.of(d) * size
+                    d * magswarm_model::learned::step_share(f.steps, f.size_mm, d)
                 }
                 Mode::Rate => -self.dmap_df[i][a],
             }
@@ -443,13 +438,18 @@ pub fn columns(f: &Family, rc: &RowCtx) -> (DMatrix<f64>, DMatrix<f64>) {
     if f.within {
         within_visits(&rc.visit, &mut a);
     }
-    let info = (0..blocks * k)
-        .map(|c| a.column(c).norm_squared())
-        .sum::<f64>()
-        / (blocks * k).max(1) as f64;
-    let info = info.max(1e-12);
+    let info = column_info(&a).max(1e-12);
     let pen = linear::roughness(k, blocks, f.smooth * info, 1e-3 * info);
     (a, pen)
+}
+
+/// The mean squared norm of a design fragment's columns (0 without columns): the scale its
+/// penalties are set relative to, so that a smoothing means the same whatever the units.
+pub(crate) fn column_info(a: &DMatrix<f64>) -> f64 {
+    (0..a.ncols())
+        .map(|c| a.column(c).norm_squared())
+        .sum::<f64>()
+        / a.ncols().max(1) as f64
 }
 
 /// Takes each visit's mean per axis out of every column (stacked rows): what is left varies
@@ -529,7 +529,7 @@ pub fn step_size_designs(
             if v.len() < 3 {
                 return None;
             }
-            let m = v.iter().sum::<f64>() / v.len() as f64;
+            let m = crate::stats::mean(&v);
             let sd = (v.iter().map(|a| (a - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt();
             if sd.is_nan() || sd <= 1e-9 * m.abs().max(1e-9) {
                 return None;
@@ -563,10 +563,7 @@ pub fn step_size_designs(
             }
         }
         within_visits(&rc.visit, &mut a);
-        let info = (0..a.ncols())
-            .map(|c| a.column(c).norm_squared())
-            .sum::<f64>()
-            / a.ncols().max(1) as f64;
+        let info = column_info(&a);
         if info.is_nan() || info <= 1e-12 {
             return None;
         }

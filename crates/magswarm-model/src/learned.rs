@@ -96,6 +96,19 @@ impl LearnedSteps {
     }
 }
 
+/// The multiplier of a `step_fraction` term's heights for a step `delta` \[mm\]: whether
+/// the term follows that step (`steps`), times `|delta| / step_size_mm` where that is set
+/// (> 0). One formula for the model that runs a term and the fit that learns it, so that a
+/// written term acts as it was fitted.
+pub fn step_share(steps: LearnedSteps, step_size_mm: f64, delta: f64) -> f64 {
+    let size = if step_size_mm > 0.0 {
+        delta.abs() / step_size_mm
+    } else {
+        1.0
+    };
+    steps.of(delta) * size
+}
+
 /// One learned term.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -274,12 +287,7 @@ impl LearnedTerm {
     /// radius: whether the term follows that step at all (`steps`), times the step's size
     /// relative to `step_size_mm` where that is set.
     pub fn step_share(&self, delta: f64) -> f64 {
-        let size = if self.step_size_mm > 0.0 {
-            delta.abs() / self.step_size_mm
-        } else {
-            1.0
-        };
-        self.steps.of(delta) * size
+        step_share(self.steps, self.step_size_mm, delta)
     }
 
     /// Heights at `x` per radius and their slopes d/dx (piecewise linear, flat beyond the end

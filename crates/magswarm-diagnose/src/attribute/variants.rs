@@ -166,7 +166,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
             .map(f64::abs)
             .collect();
         if !sizes.is_empty() {
-            let mean = sizes.iter().sum::<f64>() / sizes.len() as f64;
+            let mean = crate::stats::mean(&sizes);
             if mean > 0.0 && mean.is_finite() {
                 v.push(Variant::Shape(Family {
                     smooth: 1.0,
@@ -279,7 +279,7 @@ pub(super) fn variants(lin: &Linear) -> Vec<(Cand, Vec<Variant>)> {
                         }
                     }
                 }
-                let info = (0..k).map(|c| a.column(c).norm_squared()).sum::<f64>() / k as f64;
+                let info = shapes::column_info(&a);
                 let info = info.max(1e-12);
                 let pen = crate::linear::roughness(k, 1, 0.3 * info, 1e-3 * info);
                 cv.push(Variant::Columns("offset, amplitude over z_m", a, pen));
