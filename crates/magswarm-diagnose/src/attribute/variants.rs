@@ -28,6 +28,17 @@ impl Cand {
             Cand::Anomaly => None,
         }
     }
+
+    /// The gap-test families (`detect`) whose alternatives see this candidate's structure: a
+    /// drift over session time, a formation after the input changes, every other candidate
+    /// over the operating points (the surface over (z_m, f) or the point means).
+    pub(super) fn seen_by(self) -> &'static [&'static str] {
+        match self {
+            Cand::Effect(EffectKind::ParticleDrift) => &["drift"],
+            Cand::Effect(EffectKind::FormationLag) => &["formation"],
+            _ => &["inputs", "lack_of_fit"],
+        }
+    }
 }
 
 /// One variant of a candidate: its columns (and penalty), or a box found per log.
