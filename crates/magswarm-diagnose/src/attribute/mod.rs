@@ -365,45 +365,43 @@ pub fn attribute(
                 .and_then(|v| columns_of(v, &lin.rc))
                 .map_or(usize::MAX, |d| d.a.ncols())
         });
-        // A formation is named where the gap tests on the current design find structure
-        // after the input changes. Those tests carry a nuisance the candidate's refit does not
-        // (the rig's own first-order approach at the baseline's time constant, judged within
-        // the visits), and a formation shape takes up part of any local or one-sided
-        // structure that follows the changes on far-apart steps (a dip at a few operating
-        // points was named `formation_lag` at p = 0.01 while the formation tests read
-        // nothing).
-        let formation_seen = det.families.contains(&"formation");
+        // A candidate is set aside where the round's gap tests do not find its own family
+        // (`Cand::seen_by`), in two cases.
+        //
+        // A formation, in every round, named or not: those tests carry a nuisance the
+        // candidate's refit does not (the rig's own first-order approach at the baseline's
+        // time constant, judged within the visits), and a formation shape takes up part of any
+        // local or one-sided structure that follows the changes on far-apart steps (a dip at a
+        // few operating points was named `formation_lag` at p = 0.01 while the formation tests
+        // read nothing).
+        //
+        // In a later round, any new name: the round was opened by what the named effects
+        // leave, and the best-scoring candidate of another family takes a share of that
+        // leftover without being there (formations whose leftover only the formation tests saw
+        // gained a later `phase_lag` or `cohesion_loss` on the benchmark's held-out set). A
+        // named effect's refinement stays offered: its leftover is its own (a second shape
+        // over f took a held-out phase lag's shrink from 0.51 to 0.64 in a round only the
+        // formation tests opened). So does the local anomaly, which names nothing: ahead of the
+        // effects it ends the selection (another lab's null log, whose own approach the
+        // formation tests read as structure, stopped there; barred, its `formation_lag` was
+        // named in round 3).
         let formation = Cand::Effect(EffectKind::FormationLag);
-        let unseen = (!formation_seen)
-            .then(|| order.iter().copied().find(|&i| scored[i].name == formation))
-            .flatten();
-        order.retain(|&i| Some(i) != unseen);
-        // In a later round, a new name only for a candidate whose own family the round's
-        // tests see: the round was opened by what the named effects leave, and the
-        // best-scoring candidate of another family takes a share of that leftover without
-        // being there (formations whose leftover only the formation tests saw gained a later
-        // `phase_lag` or `cohesion_loss` on the benchmark's held-out set). A named effect's
-        // refinement stays offered: its leftover is its own (a second shape over f took a
-        // held-out phase lag's shrink from 0.51 to 0.64 in a round only the formation tests
-        // opened). So does the local anomaly, which names nothing: ahead of the effects it
-        // ends the selection (another lab's null log, whose own approach the formation tests
-        // read as structure, stopped there; barred, its `formation_lag` was named in round 3).
-        let unseen_family: Vec<usize> = if round > 1 {
-            order
-                .iter()
-                .copied()
-                .filter(|&i| {
-                    let c = scored[i].name;
-                    c != Cand::Anomaly
-                        && !is_named(c)
-                        && !c.seen_by().iter().any(|f| det.families.contains(f))
-                })
-                .collect()
+        let set_aside: Vec<usize> = order
+            .iter()
+            .copied()
+            .filter(|&i| {
+                let c = scored[i].name;
+                let judged = c == formation || (round > 1 && c != Cand::Anomaly && !is_named(c));
+                judged && !c.seen_by().iter().any(|f| det.families.contains(f))
+            })
+            .collect();
+        order.retain(|i| !set_aside.contains(i));
+        // For the table's notes (the round's detection is handed on with the round below).
+        let families_found = if det.families.is_empty() {
+            "no family at alpha".to_string()
         } else {
-            Vec::new()
+            det.families.join(", ")
         };
-        order.retain(|i| !unseen_family.contains(i));
-        let families_now = det.families.clone();
         let mut best = order.first().copied();
         // A local anomaly ahead of every effect: an effect that passed still names the gap if
         // its excess comes within 60 % of the anomaly's, if it leaves no box beyond the
@@ -619,15 +617,11 @@ pub fn attribute(
                 implausible: Vec::new(),
                 // The first reason that kept it out: a candidate set aside before the gate (a
                 // formation the gap tests do not see) was never a route to open it.
-                notes: if unseen == Some(i) {
+                notes: if set_aside.contains(&i) && s.name == formation {
                     vec!["not named: beyond its null, but the gap tests find no structure after the input changes beside the rig's own approach".to_string()]
-                } else if unseen_family.contains(&i)
-                    && noise::rejects(s.p, st.alpha)
-                    && s.gain >= MIN_GAIN
-                {
+                } else if set_aside.contains(&i) {
                     vec![format!(
-                        "not named: beyond its null, but the gap tests on what the named effects leave find {} and not its own family ({})",
-                        if families_now.is_empty() { "no family at alpha".to_string() } else { families_now.join(", ") },
+                        "not named: beyond its null, but the gap tests on what the named effects leave find {families_found} and not its own family ({})",
                         s.name.seen_by().join(" or ")
                     )]
                 } else if let Some(p) =
